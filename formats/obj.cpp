@@ -1,0 +1,1 @@
+// STUB: OBJ loading helpers (to be replaced).

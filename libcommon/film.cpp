@@ -1,0 +1,1 @@
+#include "libcommon/film.h"

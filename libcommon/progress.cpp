@@ -1,0 +1,1 @@
+#include "libcommon/progress.h"

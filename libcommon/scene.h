@@ -1,0 +1,129 @@
+// The in-memory scene: geometry in flat arrays, BSDFs, lights, the camera and film settings, and the
+// Embree acceleration structure over it. Knows no file format: formats/scene_xml.h fills it.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "libcommon/bsdf.h"
+#include "libcommon/camera.h"
+#include "libcommon/color.h"
+#include "libcommon/lights.h"
+#include "libcommon/math.h"
+
+namespace iris {
+
+// Triangle mesh in world space.
+struct Mesh {
+    std::string name;              // for messages: file name or shape id
+    std::vector<Vec3> positions;   // world space
+    std::vector<Vec3> normals;     // per-vertex shading normals (world space), empty = flat shading
+    std::vector<uint32_t> indices; // 3 per triangle
+    uint32_t bsdf = 0;             // index into Scene::bsdfs
+    int32_t light = -1;            // index into Scene::lights if the mesh is an area emitter
+    bool flip_normals = false;     // Mitsuba `flipNormals`
+    uint32_t triangle_count() const { return uint32_t(indices.size() / 3); }
+};
+
+// Analytic sphere (Mitsuba `sphere`); the normal points outwards unless flip_normals.
+struct Sphere {
+    Vec3 center;
+    float radius = 1;
+    uint32_t bsdf = 0;
+    int32_t light = -1;
+    bool flip_normals = false;
+};
+
+enum class FilterType : uint8_t { Box, Gaussian };
+
+struct FilmSettings {
+    int width = 768, height = 576;
+    FilterType filter = FilterType::Gaussian;
+    float filter_stddev = 0.5f;  // pixels (Gaussian)
+    float filter_radius = 2.0f;  // pixels (Gaussian: 4 stddev as Mitsuba; box: 0.5)
+};
+
+// Defaults a render takes from the scene file (Mitsuba's <integrator> and <sampler>).
+struct RenderDefaults {
+    int max_depth = -1;  // Mitsuba meaning: longest path in edges, -1 = unlimited
+    int rr_depth = 5;    // Russian roulette starts at this depth
+    int spp = 16;        // <sampler>'s sampleCount
+};
+
+// What kind of object an Embree geometry ID refers to.
+struct GeomRef {
+    enum Kind : uint8_t { MeshKind, SphereKind } kind;
+    uint32_t index;
+};
+
+// A ray with parametric extent [tmin, tmax].
+struct Ray {
+    Vec3 o, d;
+    float tmin = 0, tmax = kInf;
+};
+
+// Everything the integrator needs to know about a surface hit.
+struct SurfaceHit {
+    Vec3 p;          // position, recomputed from the primitive (not o + t d) for precision
+    Vec3 ng;         // geometric normal (unit, on the side the shape's normal points)
+    Vec3 ns;         // shading normal (unit), same hemisphere as ng after the loader's checks
+    Frame frame;     // shading frame around ns
+    float t = 0;
+    uint32_t bsdf = 0;
+    int32_t light = -1;
+    uint32_t geom = 0, prim = 0;
+};
+
+class Accel;  // Embree wrapper, defined in accel.h
+
+struct Scene {
+    std::string source;             // the file it came from, for messages and provenance
+    std::string fingerprint;        // hex digest of the scene file and every mesh it loads
+    std::vector<Mesh> meshes;
+    std::vector<Sphere> spheres;
+    std::vector<Bsdf> bsdfs;
+    std::vector<Light> lights;
+    Distribution1D light_selection;  // in proportion to power * sampling_weight
+    int environment_light = -1;      // index of the constant environment light, if any
+    Camera camera;
+    FilmSettings film;
+    RenderDefaults defaults;
+    Vec3 bounds_min{kInf}, bounds_max{-kInf};
+    std::vector<GeomRef> geoms;     // Embree geometry ID -> object
+    std::shared_ptr<Accel> accel;
+
+    Scene();
+    ~Scene();
+    Scene(Scene&&) noexcept;
+    Scene& operator=(Scene&&) noexcept;
+
+    // Computes bounds, builds lights and the Embree BVH. Call after the loader has filled the arrays.
+    void finalize();
+
+    // Closest hit along the ray; false on a miss.
+    bool intersect(const Ray& ray, SurfaceHit* hit) const;
+    // True if anything blocks the segment between two points (both already offset off their surfaces).
+    bool occluded(Vec3 from, Vec3 to) const;
+    // True if anything blocks the ray within [tmin, tmax].
+    bool occluded(const Ray& ray) const;
+
+    // Scale of the scene (largest absolute bounding-box coordinate), for relative epsilons.
+    float scale() const { return std::max(max_abs_component(bounds_min), max_abs_component(bounds_max)); }
+};
+
+// Moves p off its surface along the geometric normal ng, to the side of direction w, by an amount
+// relative to the magnitude of p's coordinates (Waechter & Binder 2019: integer ULP offsets), so that
+// rays leaving the surface never hit it again, at any scene scale.
+Vec3 offset_ray_origin(Vec3 p, Vec3 ng, Vec3 w);
+
+// A ray leaving a surface hit in direction w.
+inline Ray spawn_ray(const SurfaceHit& h, Vec3 w) {
+    Ray r;
+    r.o = offset_ray_origin(h.p, h.ng, w);
+    r.d = w;
+    return r;
+}
+
+}  // namespace iris
