@@ -1,1 +1,90 @@
 #include "libcommon/film.h"
+
+#include <algorithm>
+
+namespace iris {
+
+namespace {
+constexpr int kFilterBins = 512;
+}
+
+FilterSampler::FilterSampler(const FilmSettings& film) : film_(film) {
+    if (film_.filter == FilterType::Box) return;
+    // Tabulate the 1D Gaussian; the 2D filter is separable, so x and y are sampled independently.
+    const float r = film_.filter_radius, dx = 2 * r / kFilterBins;
+    cdf_.assign(kFilterBins + 1, 0.0f);
+    pdf_.assign(kFilterBins, 0.0f);
+    double total = 0;
+    std::vector<double> mass(kFilterBins);
+    for (int i = 0; i < kFilterBins; ++i) {
+        // Bin mass by Simpson's rule on the (smooth) filter.
+        float a = -r + i * dx, b = a + dx;
+        mass[i] = (eval1d(a) + 4 * eval1d(0.5f * (a + b)) + eval1d(b)) * dx / 6.0;
+        total += mass[i];
+    }
+    double acc = 0;
+    for (int i = 0; i < kFilterBins; ++i) {
+        acc += mass[i];
+        cdf_[i + 1] = float(acc / total);
+        pdf_[i] = float(mass[i] / total / dx);
+    }
+    cdf_[kFilterBins] = 1.0f;
+}
+
+float FilterSampler::eval1d(float x) const {
+    // Mitsuba's truncated Gaussian: exp(-x^2/2s^2) - exp(-r^2/2s^2), clamped at zero.
+    float s2 = 2 * film_.filter_stddev * film_.filter_stddev;
+    float r = film_.filter_radius;
+    return std::max(0.0f, std::exp(-x * x / s2) - std::exp(-r * r / s2));
+}
+
+Vec2 FilterSampler::sample(Vec2 u, float* weight) const {
+    if (film_.filter == FilterType::Box) {
+        *weight = 1.0f;
+        return {u.x - 0.5f, u.y - 0.5f};
+    }
+    const float r = film_.filter_radius, dx = 2 * r / kFilterBins;
+    float w = 1.0f;
+    float out[2];
+    float uu[2] = {u.x, u.y};
+    for (int k = 0; k < 2; ++k) {
+        int i = int(std::upper_bound(cdf_.begin(), cdf_.end(), uu[k]) - cdf_.begin()) - 1;
+        i = clamp(i, 0, kFilterBins - 1);
+        float span = cdf_[i + 1] - cdf_[i];
+        float t = span > 0 ? (uu[k] - cdf_[i]) / span : 0.5f;
+        float x = -r + (i + clamp(t, 0.0f, 1.0f)) * dx;
+        out[k] = x;
+        w *= eval1d(x) / pdf_[i];
+    }
+    // Normalise so that the weight is 1 where the filter equals its tabulation: the per-pixel
+    // estimate divides by the summed weights anyway, so only the ratio between samples matters.
+    *weight = w;
+    return {out[0], out[1]};
+}
+
+Film::Film(int w, int h)
+    : width(w), height(h), sum_wl(size_t(w) * h * 3, 0.0), sum_wl2(size_t(w) * h * 3, 0.0),
+      sum_w(size_t(w) * h, 0.0), count(size_t(w) * h, 0) {}
+
+RGB Film::value(int x, int y) const {
+    size_t i = size_t(y) * width + x;
+    if (sum_w[i] <= 0) return RGB(0.0f);
+    double inv = 1.0 / sum_w[i];
+    return RGB(float(sum_wl[3 * i] * inv), float(sum_wl[3 * i + 1] * inv), float(sum_wl[3 * i + 2] * inv));
+}
+
+RGB Film::variance(int x, int y) const {
+    size_t i = size_t(y) * width + x;
+    double n = count[i];
+    if (n < 2 || sum_w[i] <= 0) return RGB(0.0f);
+    double mean_w = sum_w[i] / n;
+    RGB r;
+    for (int c = 0; c < 3; ++c) {
+        double m = sum_wl[3 * i + c] / n, m2 = sum_wl2[3 * i + c] / n;
+        double var_sample = std::max(0.0, (m2 - m * m) * n / (n - 1));
+        r[c] = float(var_sample / n / (mean_w * mean_w));
+    }
+    return r;
+}
+
+}  // namespace iris
