@@ -1,0 +1,146 @@
+// The render binary end to end on scenes with known answers, plus its command-line contract.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "formats/exr.h"
+#include "support/run_tool.h"
+
+namespace fs = std::filesystem;
+using namespace iris;
+using namespace iris::test;
+
+namespace {
+
+// Image mean per channel and its standard error, from the per-pixel variance layer.
+struct ChannelMean {
+    double mean[3] = {0, 0, 0}, stderr_[3] = {0, 0, 0};
+};
+
+ChannelMean image_mean(const Image& img) {
+    ChannelMean m;
+    const char* names[3] = {"R", "G", "B"};
+    const char* vnames[3] = {"variance.R", "variance.G", "variance.B"};
+    size_t n = size_t(img.width) * img.height;
+    for (int c = 0; c < 3; ++c) {
+        int ci = img.channel_index(names[c]), vi = img.channel_index(vnames[c]);
+        EXPECT_GE(ci, 0);
+        EXPECT_GE(vi, 0);
+        double s = 0, v = 0;
+        for (size_t i = 0; i < n; ++i) {
+            s += img.data[ci][i];
+            v += img.data[vi][i];
+        }
+        m.mean[c] = s / n;
+        m.stderr_[c] = std::sqrt(v) / n;  // pixels are independent under filter importance sampling
+    }
+    return m;
+}
+
+Image render_scene(const std::string& scene, const std::string& extra, const TempDir& dir) {
+    std::string out = dir.file("out.exr");
+    ToolResult r = run_command(tool("render") + " " + scene + " -o " + out + " --variance -q " + extra);
+    EXPECT_EQ(r.status, 0) << r.output;
+    return read_exr(out);
+}
+
+// |mean - expected| within 4.5 standard errors (one deterministic, seeded test per channel) plus a
+// small relative allowance for float rounding over long paths.
+void expect_mean(const ChannelMean& m, const double expected[3]) {
+    for (int c = 0; c < 3; ++c) {
+        double tol = 4.5 * m.stderr_[c] + 1e-4 * expected[c];
+        EXPECT_NEAR(m.mean[c], expected[c], tol) << "channel " << c << ", standard error " << m.stderr_[c];
+    }
+}
+
+}  // namespace
+
+TEST(RenderAnalytic, FurnaceSphereEmitsAndReflects) {
+    TempDir dir;
+    Image img = render_scene(data_file("render/furnace_sphere.xml"), "--spp 64 --seed 3", dir);
+    const double expected[3] = {5, 5, 5};  // Le / (1 - rho) = 1 / 0.2
+    expect_mean(image_mean(img), expected);
+}
+
+TEST(RenderAnalytic, FurnaceSphereParameterOverride) {
+    TempDir dir;
+    Image img = render_scene(data_file("render/furnace_sphere.xml"), "--spp 64 -D rho=0.5 -D Le=3", dir);
+    const double expected[3] = {6, 6, 6};
+    expect_mean(image_mean(img), expected);
+}
+
+TEST(RenderAnalytic, FurnaceBoxMesh) {
+    TempDir dir;
+    Image img = render_scene(data_file("render/furnace_box.xml"), "--spp 64", dir);
+    const double expected[3] = {1 / 0.5, 2 / 0.75, 0.5 / 0.25};
+    expect_mean(image_mean(img), expected);
+}
+
+TEST(RenderAnalytic, SphereLightOverPlane) {
+    TempDir dir;
+    Image img = render_scene(data_file("render/sphere_light_over_plane.xml"), "--spp 256", dir);
+    const double expected[3] = {0.3125, 0.3125, 0.3125};
+    expect_mean(image_mean(img), expected);
+}
+
+TEST(RenderCli, SameSeedSameImageForAnyThreadCount) {
+    TempDir dir;
+    std::string scene = data_file("render/furnace_box.xml");
+    auto a = run_command(tool("render") + " " + scene + " -o " + dir.file("a.exr") + " -q --spp 8 -t 1 --seed 9");
+    auto b = run_command(tool("render") + " " + scene + " -o " + dir.file("b.exr") + " -q --spp 8 -t 2 --seed 9");
+    ASSERT_EQ(a.status, 0) << a.output;
+    ASSERT_EQ(b.status, 0) << b.output;
+    Image ia = read_exr(dir.file("a.exr")), ib = read_exr(dir.file("b.exr"));
+    ASSERT_EQ(ia.data.size(), ib.data.size());
+    for (size_t c = 0; c < ia.data.size(); ++c) EXPECT_EQ(ia.data[c], ib.data[c]) << ia.channels[c];
+    auto c = run_command(tool("render") + " " + scene + " -o " + dir.file("c.exr") + " -q --spp 8 -t 2 --seed 10");
+    ASSERT_EQ(c.status, 0);
+    EXPECT_NE(read_exr(dir.file("c.exr")).data[0], ia.data[0]) << "a different seed must change the noise";
+}
+
+TEST(RenderCli, TimeBudgetAndLayers) {
+    TempDir dir;
+    std::string out = dir.file("t.exr");
+    auto r = run_command(tool("render") + " " + data_file("render/furnace_box.xml") + " -o " + out +
+                         " -q --time 0.5 --resolution 24x12 --sample-count --variance");
+    ASSERT_EQ(r.status, 0) << r.output;
+    Image img = read_exr(out);
+    EXPECT_EQ(img.width, 24);
+    EXPECT_EQ(img.height, 12);
+    int s = img.channel_index("samples");
+    ASSERT_GE(s, 0);
+    int spp = std::stoi(img.metadata.at("iris:spp"));
+    EXPECT_GE(spp, 1);
+    EXPECT_EQ(img.data[s][0], float(spp));
+    EXPECT_GE(img.channel_index("variance.G"), 0);
+    EXPECT_EQ(img.metadata.at("iris:tool"), "render");
+    EXPECT_NE(img.metadata.at("iris:command_line").find("--time 0.5"), std::string::npos);
+    EXPECT_FALSE(img.metadata.at("iris:scene_fingerprint").empty());
+}
+
+// Each bad invocation: non-zero exit, one line "render: error: ..." naming the problem, no output file.
+TEST(RenderCli, BadInputGivesOneLineErrorAndNoOutput) {
+    TempDir dir;
+    std::string scene = data_file("render/furnace_box.xml");
+    struct Case {
+        std::string args, expect;
+    } cases[] = {
+        {scene + " --spp -1", "--spp"},
+        {scene + " --resolution 0x5", "--resolution"},
+        {scene + " --resolution abc", "--resolution"},
+        {scene + " --time -3", "--time"},
+        {dir.file("missing.xml"), "missing.xml"},
+    };
+    for (const Case& c : cases) {
+        std::string out = dir.file("bad.exr");
+        auto r = run_command(tool("render") + " " + c.args + " -q -o " + out);
+        EXPECT_NE(r.status, 0) << c.args;
+        EXPECT_NE(r.output.find("render: error:"), std::string::npos) << r.output;
+        EXPECT_NE(r.output.find(c.expect), std::string::npos) << r.output;
+        EXPECT_FALSE(fs::exists(out)) << c.args;
+    }
+    auto r = run_command(tool("render") + " " + scene + " -q -o /nonexistent-dir/x.exr");
+    EXPECT_NE(r.status, 0);
+    EXPECT_NE(r.output.find("/nonexistent-dir/x.exr"), std::string::npos) << r.output;
+}

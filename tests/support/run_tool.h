@@ -1,0 +1,52 @@
+// Running the built tools from tests: command line in, exit status and captured output back.
+#pragma once
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+namespace iris::test {
+
+struct ToolResult {
+    int status = -1;     // exit status (128 + signal if killed)
+    std::string output;  // stdout and stderr together
+};
+
+// Runs `command` through the shell with stderr merged into stdout.
+inline ToolResult run_command(const std::string& command) {
+    ToolResult r;
+    FILE* p = popen((command + " 2>&1").c_str(), "r");
+    if (!p) return r;
+    std::array<char, 4096> buf;
+    size_t n;
+    while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.output.append(buf.data(), n);
+    int st = pclose(p);
+    r.status = WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+    return r;
+}
+
+// Path of a built tool.
+inline std::string tool(const std::string& name) { return std::string(IRIS_BIN_DIR) + "/" + name; }
+
+// Path of a file under tests/data.
+inline std::string data_file(const std::string& rel) { return std::string(IRIS_SOURCE_DIR) + "/tests/data/" + rel; }
+
+// A fresh temporary directory for one test, removed when the object dies.
+struct TempDir {
+    std::filesystem::path path;
+    TempDir() {
+        char tmpl[] = "/tmp/iris-test-XXXXXX";
+        path = mkdtemp(tmpl);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        std::filesystem::remove_all(path, ec);
+    }
+    std::string file(const std::string& name) const { return (path / name).string(); }
+};
+
+}  // namespace iris::test

@@ -1,0 +1,118 @@
+// compare-images: error metrics of a rendered image against a reference (EXR or 8-bit sRGB PNG),
+// an optional false-colour error image, and thresholds that turn the result into an exit code
+// (0 = within thresholds, 2 = a threshold exceeded, 1 = error), for tests, pipelines and benchmarks.
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <string>
+
+#include "formats/exr.h"
+#include "formats/png.h"
+#include "libcommon/image_metrics.h"
+#include "libcommon/spectrum.h"
+
+namespace {
+
+bool ends_with(const std::string& s, const std::string& suffix) {
+    return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+// RGB data (3 floats per pixel) of an EXR or PNG; *srgb8 tells whether the values are display-encoded.
+std::vector<float> load_rgb(const std::string& path, int* w, int* h, bool* srgb8) {
+    iris::Image img = ends_with(path, ".png") ? iris::read_png(path) : iris::read_exr(path);
+    *srgb8 = ends_with(path, ".png");
+    int r = img.channel_index("R"), g = img.channel_index("G"), b = img.channel_index("B");
+    if (r < 0 || g < 0 || b < 0) throw iris::ImageError(path + ": no R, G, B channels");
+    *w = img.width;
+    *h = img.height;
+    std::vector<float> out(size_t(img.width) * img.height * 3);
+    for (size_t i = 0; i < size_t(img.width) * img.height; ++i) {
+        out[3 * i] = img.data[r][i];
+        out[3 * i + 1] = img.data[g][i];
+        out[3 * i + 2] = img.data[b][i];
+    }
+    return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    std::string test_path, ref_path, error_image;
+    std::vector<std::string> masks;
+    bool mitsuba_banner = false, json = false;
+    double error_scale = 1.0, max_rel_mse = -1, max_mean_diff = -1;
+    CLI::App app{"compare-images: relMSE, trimmed relMSE, MAPE and channel means of TEST against REFERENCE"};
+    app.set_version_flag("--version", std::string("iris compare-images ") + IRIS_VERSION);
+    app.add_option("test", test_path, "Image to judge (.exr, or .png = 8-bit sRGB)")->required();
+    app.add_option("reference", ref_path, "Reference image (.exr, or .png = 8-bit sRGB)")->required();
+    app.add_option("--mask", masks, "Leave out the pixel rectangle x0,y0,x1,y1 (half-open); repeatable");
+    app.add_flag("--mitsuba-banner", mitsuba_banner, "Leave out Mitsuba's banner (rows >= H-12, columns 650-765)");
+    app.add_option("-o,--error-image", error_image, "Write a false-colour relative-error PNG here");
+    app.add_option("--error-scale", error_scale, "Relative squared error shown as full red (default 1)");
+    app.add_option("--max-relmse", max_rel_mse, "Exit 2 if relMSE exceeds this");
+    app.add_option("--max-mean-diff", max_mean_diff,
+                   "Exit 2 if a channel's mean after sRGB 8-bit encoding differs by more than this percentage");
+    app.add_flag("--json", json, "Print the metrics as one JSON object");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        return app.exit(e);
+    }
+    try {
+        int wt, ht, wr, hr;
+        bool t8, r8;
+        std::vector<float> test = load_rgb(test_path, &wt, &ht, &t8);
+        std::vector<float> ref = load_rgb(ref_path, &wr, &hr, &r8);
+        if (wt != wr || ht != hr)
+            throw std::runtime_error(test_path + ": size " + std::to_string(wt) + "x" + std::to_string(ht) +
+                                     " differs from the reference's " + std::to_string(wr) + "x" + std::to_string(hr));
+        if (t8)
+            for (float& v : test) v = iris::srgb_to_linear(v);
+        std::vector<iris::PixelRect> rects;
+        for (const std::string& m : masks) {
+            iris::PixelRect r;
+            if (std::sscanf(m.c_str(), "%d,%d,%d,%d", &r.x0, &r.y0, &r.x1, &r.y1) != 4)
+                throw std::runtime_error("--mask expects x0,y0,x1,y1, got \"" + m + "\"");
+            rects.push_back(r);
+        }
+        if (mitsuba_banner) rects.push_back({650, hr - 12, 766, hr});
+        iris::ImageMetrics m = iris::compare_images(test, ref, wt, ht, rects, r8);
+        double worst_mean_diff = 0;
+        for (int c = 0; c < 3; ++c) {
+            double d = m.mean_ref_srgb8[c] > 0
+                           ? 100.0 * std::abs(m.mean_test_srgb8[c] - m.mean_ref_srgb8[c]) / m.mean_ref_srgb8[c]
+                           : 0.0;
+            worst_mean_diff = std::max(worst_mean_diff, d);
+        }
+        if (json) {
+            std::printf("{\"relmse\": %.6g, \"relmse_trimmed\": %.6g, \"mape\": %.6g, \"mse\": %.6g, "
+                        "\"mean_test\": [%.6g, %.6g, %.6g], \"mean_ref\": [%.6g, %.6g, %.6g], "
+                        "\"mean_test_srgb8\": [%.4f, %.4f, %.4f], \"mean_ref_srgb8\": [%.4f, %.4f, %.4f], "
+                        "\"worst_mean_diff_percent\": %.4f, \"pixels\": %llu}\n",
+                        m.rel_mse, m.rel_mse_trimmed, m.mape, m.mse, m.mean_test.r, m.mean_test.g, m.mean_test.b,
+                        m.mean_ref.r, m.mean_ref.g, m.mean_ref.b, m.mean_test_srgb8.r, m.mean_test_srgb8.g,
+                        m.mean_test_srgb8.b, m.mean_ref_srgb8.r, m.mean_ref_srgb8.g, m.mean_ref_srgb8.b,
+                        worst_mean_diff, (unsigned long long)m.pixels);
+        } else {
+            std::printf("relMSE            %.6g\nrelMSE (trimmed)  %.6g\nMAPE              %.6g\n", m.rel_mse,
+                        m.rel_mse_trimmed, m.mape);
+            std::printf("mean linear       test (%.5g, %.5g, %.5g)  reference (%.5g, %.5g, %.5g)\n", m.mean_test.r,
+                        m.mean_test.g, m.mean_test.b, m.mean_ref.r, m.mean_ref.g, m.mean_ref.b);
+            std::printf("mean sRGB 8-bit   test (%.3f, %.3f, %.3f)  reference (%.3f, %.3f, %.3f)  worst %.3f %%\n",
+                        m.mean_test_srgb8.r, m.mean_test_srgb8.g, m.mean_test_srgb8.b, m.mean_ref_srgb8.r,
+                        m.mean_ref_srgb8.g, m.mean_ref_srgb8.b, worst_mean_diff);
+        }
+        if (!error_image.empty())
+            iris::write_png(error_image, wt, ht, iris::error_false_colour(test, ref, wt, ht, error_scale, r8));
+        bool fail = (max_rel_mse >= 0 && m.rel_mse > max_rel_mse) || (max_mean_diff >= 0 && worst_mean_diff > max_mean_diff);
+        if (fail) {
+            std::fprintf(stderr, "compare-images: %s exceeds the thresholds against %s\n", test_path.c_str(),
+                         ref_path.c_str());
+            return 2;
+        }
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "compare-images: error: %s\n", e.what());
+        return 1;
+    }
+    return 0;
+}
