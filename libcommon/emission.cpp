@@ -1,0 +1,64 @@
+#include "libcommon/emission.h"
+
+#include "libcommon/sampling.h"
+#include "libcommon/scene.h"
+
+namespace iris {
+
+bool sample_emission(const Scene& scene, float u_sel, Vec2 u_pos, Vec2 u_dir, EmissionSample* s) {
+    if (scene.light_selection.empty()) return false;
+    uint32_t li = scene.light_selection.sample(u_sel);
+    float p_sel = scene.light_selection.pmf(li);
+    if (!(p_sel > 0)) return false;
+    const Light& l = scene.lights[li];
+    s->light = li;
+    // Every emitter here is Lambertian, so directions are cosine-distributed about the normal and the
+    // flux per photon is the light's total power over the selection probability.
+    s->flux = light_power(scene, l) / p_sel;
+    switch (l.type) {
+        case LightType::AreaMesh: {
+            const Mesh& m = scene.meshes[l.shape];
+            float u_tri;
+            uint32_t tri = l.triangles.sample(u_pos.x, &u_tri);
+            const uint32_t* idx = &m.indices[3 * size_t(tri)];
+            Vec3 p0 = m.positions[idx[0]], p1 = m.positions[idx[1]], p2 = m.positions[idx[2]];
+            Vec2 b = sample_uniform_triangle({u_tri, u_pos.y});
+            s->p = p0 * (1 - b.x - b.y) + p1 * b.x + p2 * b.y;
+            Vec3 n = cross(p1 - p0, p2 - p0);
+            float len = length(n);
+            if (!(len > 0)) return false;
+            s->n = (m.flip_normals ? -n : n) / len;
+            s->d = Frame(s->n).to_world(sample_cosine_hemisphere(u_dir));
+            return true;
+        }
+        case LightType::AreaSphere: {
+            const Sphere& sp = scene.spheres[l.shape];
+            Vec3 n = sample_uniform_sphere(u_pos);
+            s->p = sp.center + n * sp.radius;
+            s->n = sp.flip_normals ? -n : n;
+            s->d = Frame(s->n).to_world(sample_cosine_hemisphere(u_dir));
+            return true;
+        }
+        case LightType::Point:
+            s->p = l.position;
+            s->n = Vec3(0);
+            s->d = sample_uniform_sphere(u_dir);
+            return true;
+        case LightType::Constant: {
+            // A direction of travel d, and an origin on a disk of the bounding sphere's radius R that
+            // faces d from outside the scene: uniform over the disk, the flux is L * pi R^2 * 4 pi.
+            Vec3 c = (scene.bounds_min + scene.bounds_max) * 0.5f;
+            float r = 0.5f * length(scene.bounds_max - scene.bounds_min);
+            if (!(r > 0)) r = 1;
+            s->d = -sample_uniform_sphere(u_dir);
+            Frame f(s->d);
+            Vec2 disk = sample_concentric_disk(u_pos);
+            s->p = c + (f.s * disk.x + f.t * disk.y) * r - s->d * r;
+            s->n = Vec3(0);
+            return true;
+        }
+    }
+    return false;
+}
+
+}  // namespace iris

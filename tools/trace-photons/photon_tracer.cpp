@@ -1,0 +1,111 @@
+#include "tools/trace-photons/photon_tracer.h"
+
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <chrono>
+#include <stdexcept>
+#include <thread>
+
+#include "libcommon/emission.h"
+#include "libcommon/progress.h"
+#include "libcommon/rng.h"
+
+namespace iris {
+
+namespace {
+
+constexpr uint64_t kChunk = 1024;  // paths per work item; photons of a chunk are kept in path order
+
+// Traces one photon path and appends its photons to `out`.
+void trace_one(const Scene& scene, const PhotonOptions& o, uint64_t index, std::vector<Photon>& out,
+               uint64_t* nonfinite) {
+    Rng rng = Rng::for_index(o.seed, Stream::Photons, index);
+    float u_sel = rng.next_float();
+    Vec2 u_pos{rng.next_float(), rng.next_float()}, u_dir{rng.next_float(), rng.next_float()};
+    EmissionSample e;
+    if (!sample_emission(scene, u_sel, u_pos, u_dir, &e)) return;
+    RGB beta = e.flux / float(o.paths);
+    const float cutoff = max_component(beta) * o.cutoff;
+    Ray ray;
+    ray.d = e.d;
+    ray.o = (e.n.x == 0 && e.n.y == 0 && e.n.z == 0) ? e.p : offset_ray_origin(e.p, e.n, e.d);
+    SurfaceHit hit;
+    for (int depth = 1; o.max_depth < 0 || depth <= o.max_depth; ++depth) {
+        if (!scene.intersect(ray, &hit)) return;
+        const Bsdf& bsdf = scene.bsdfs[hit.bsdf];
+        Vec3 wi_world = -ray.d;  // towards the light the photon came from
+        if (!bsdf_is_delta(bsdf)) {
+            if (!is_finite(beta)) {
+                ++*nonfinite;
+                return;
+            }
+            out.push_back({hit.p, wi_world, hit.ng, beta});
+        }
+        if (o.max_depth >= 0 && depth == o.max_depth) return;
+        Vec3 wi = hit.frame.to_local(wi_world);
+        BsdfSample bs;
+        float uc = rng.next_float();
+        Vec2 u{rng.next_float(), rng.next_float()};
+        if (!bsdf_sample(bsdf, wi, u, uc, &bs, TransportMode::Importance)) return;
+        Vec3 wo_world = hit.frame.to_world(bs.wo);
+        // Light must not cross the true surface on the side the shading normal claims.
+        if (dot(wo_world, hit.ng) * bs.wo.z <= 0 || dot(wi_world, hit.ng) * wi.z <= 0) return;
+        // Adjoint BSDF with shading normals (Veach 1997, 5.3): importance transport picks up
+        // |wi.ns||wo.ng| / (|wi.ng||wo.ns|) so photon power is not created at smooth-shaded edges.
+        float corr = std::abs(wi.z * dot(wo_world, hit.ng)) / std::abs(dot(wi_world, hit.ng) * bs.wo.z);
+        RGB next = beta * bs.weight * (std::isfinite(corr) ? corr : 0.0f);
+        if (depth >= o.rr_depth) {
+            // Keep photon powers even: survive with the ratio of new to old power (at most 1).
+            float q = std::min(1.0f, max_component(next) / std::max(max_component(beta), 1e-30f));
+            if (!(rng.next_float() < q)) return;
+            next /= q;
+        }
+        beta = next;
+        if (!(max_component(beta) > cutoff)) return;
+        ray = spawn_ray(hit, wo_world);
+    }
+}
+
+}  // namespace
+
+std::vector<Photon> trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats* stats) {
+    if (o.paths == 0) throw std::runtime_error("--paths must be positive");
+    if (o.rr_depth < 1) throw std::runtime_error("--rr-depth must be at least 1");
+    if (!(o.cutoff >= 0 && o.cutoff < 1)) throw std::runtime_error("--cutoff must be in [0, 1)");
+    if (scene.light_selection.empty()) throw std::runtime_error(scene.source + ": the scene has no light with power");
+    int threads = o.threads > 0 ? o.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+    tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));
+    const uint64_t chunks = (o.paths + kChunk - 1) / kChunk;
+    std::vector<std::vector<Photon>> parts(chunks);
+    std::atomic<uint64_t> nonfinite{0};
+    Progress progress("trace-photons", chunks, o.quiet);
+    auto t0 = std::chrono::steady_clock::now();
+    tbb::parallel_for(uint64_t(0), chunks, [&](uint64_t c) {
+        uint64_t bad = 0;
+        std::vector<Photon>& out = parts[c];
+        out.reserve(kChunk * 4);
+        for (uint64_t i = c * kChunk; i < std::min(o.paths, (c + 1) * kChunk); ++i) trace_one(scene, o, i, out, &bad);
+        nonfinite += bad;
+        progress.advance(1);
+    });
+    size_t total = 0;
+    for (auto& p : parts) total += p.size();
+    std::vector<Photon> photons;
+    photons.reserve(total);
+    for (auto& p : parts) photons.insert(photons.end(), p.begin(), p.end());
+    double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    progress.finish(std::to_string(total) + " photons");
+    if (stats) {
+        stats->paths = o.paths;
+        stats->photons = total;
+        stats->nonfinite = nonfinite;
+        stats->seconds = secs;
+        stats->emitted_power = RGB(0.0f);
+        for (const Light& l : scene.lights) stats->emitted_power += light_power(scene, l);
+    }
+    return photons;
+}
+
+}  // namespace iris

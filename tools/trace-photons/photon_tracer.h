@@ -1,0 +1,41 @@
+// The trace-photons stage: photons leave the lights (chosen in proportion to power), bounce through the
+// scene with Russian roulette, and are recorded at every non-specular hit, the first included.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "libcommon/color.h"
+#include "libcommon/math.h"
+#include "libcommon/scene.h"
+
+namespace iris {
+
+struct PhotonOptions {
+    uint64_t paths = 250000;  // emitted photon paths N
+    int max_depth = 30;       // longest photon path in segments (light -> first hit = 1); -1 = unlimited
+    int rr_depth = 3;         // Russian roulette from this many bounces on
+    float cutoff = 1e-4f;     // stop a path whose power fell below this fraction of its emitted power
+    int threads = 0;          // 0 = all cores
+    uint64_t seed = 0;
+    bool quiet = false;
+};
+
+// One stored photon.
+struct Photon {
+    Vec3 position;   // world space
+    Vec3 direction;  // unit, from the hit point back towards where the photon came from (omega_i)
+    Vec3 normal;     // geometric normal of the surface hit (unit; the shape's own orientation)
+    RGB power;       // W: Phi_light / (N p_select) times the path's throughput
+};
+
+struct PhotonStats {
+    uint64_t paths = 0, photons = 0, nonfinite = 0;
+    double seconds = 0;
+    RGB emitted_power;  // sum of the lights' power, W
+};
+
+// Traces opts.paths photon paths. Deterministic for a seed, whatever the thread count.
+std::vector<Photon> trace_photons(const Scene& scene, const PhotonOptions& opts, PhotonStats* stats);
+
+}  // namespace iris
