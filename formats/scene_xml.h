@@ -30,4 +30,9 @@ struct SceneLoadOptions {
 // Loads the scene, builds lights and the Embree BVH (Scene::finalize). Throws SceneError.
 Scene load_scene(const std::string& path, const SceneLoadOptions& options = {});
 
+// Everything load_scene does except Scene::finalize: reads and checks the XML and every mesh, fills
+// the arrays, camera, film, render defaults, source and fingerprint. BSDF parameters are set but not
+// prepared (bsdf_prepare runs in finalize). For tools and tests that need the description only.
+Scene parse_scene(const std::string& path, const SceneLoadOptions& options = {});
+
 }  // namespace iris

@@ -1,14 +1,393 @@
-// STUB: to be replaced by the real implementation.
+// Light sampling (next event estimation) and the matching densities for MIS.
+//
+// The contract that matters most (DESIGN.md §4.1): light_pdf(...) returns exactly the density with
+// which sample_light(...) produces that point. Both therefore go through the same helpers below
+// (see_area_point, view_sphere), in the same precision and with the same rejection rules, so the two
+// agree bit for bit and not merely "up to rounding".
+//
+// Rejections (sample_light returns false, light_pdf returns 0), all for the same reasons:
+//   - the point faces away from the reference point (emitters radiate on their normal side only),
+//   - the point coincides with the reference point (distance 0),
+//   - the solid-angle density would overflow a float (a grazing or absurdly distant emitter: its
+//     contribution L cos / pdf is zero to float precision anyway).
+// Geometry that decides these is evaluated in double: distances and cosines are computed once from
+// float inputs, and double keeps d^2 / cos and 1 - cos(theta_max) accurate for tiny or far emitters.
 #include "libcommon/lights.h"
-#include "libcommon/scene.h"
+
+#include <cfloat>
 #include <stdexcept>
 #include <string>
+
+#include "libcommon/scene.h"
+
 namespace iris {
-#define IRIS_STUB throw std::logic_error(std::string("not implemented: ") + __func__)
-RGB light_emitted(const Light&, Vec3, Vec3) { IRIS_STUB; }
-RGB light_power(const Scene&, const Light&) { IRIS_STUB; }
-void lights_prepare(Scene&) { IRIS_STUB; }
-bool sample_light(const Scene&, Vec3, float, Vec2, LightSample*) { IRIS_STUB; }
-float light_pdf(const Scene&, uint32_t, Vec3, Vec3, Vec3, Vec3) { IRIS_STUB; }
-float light_selection_pmf(const Scene&, uint32_t) { IRIS_STUB; }
+
+namespace {
+
+constexpr double kPiD = 3.14159265358979323846;
+
+struct Vec3d {
+    double x = 0, y = 0, z = 0;
+};
+inline Vec3d to_d(Vec3 v) { return {v.x, v.y, v.z}; }
+inline Vec3 to_f(Vec3d v) { return Vec3(float(v.x), float(v.y), float(v.z)); }
+inline Vec3d sub(Vec3d a, Vec3d b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline double dot_d(Vec3d a, Vec3d b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline Vec3d scale(Vec3d a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+inline Vec3d cross_d(Vec3d a, Vec3d b) {
+    return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+
+// Largest density we report: beyond it a float pdf would be infinite.
+constexpr double kMaxPdf = double(FLT_MAX);
+
+// A point on an area emitter as seen from the reference point.
+struct Seen {
+    Vec3 wi;          // unit direction ref -> p
+    float dist = 0;   // |p - ref|
+    double d2 = 0;    // |p - ref|^2
+    double cos_light = 0;  // cosine at the light between its normal and the direction back to ref
+    bool ok = false;  // p is distinct from ref and faces it
+};
+
+Seen see_area_point(Vec3 ref, Vec3 p, Vec3 n) {
+    Seen s;
+    Vec3d d = sub(to_d(p), to_d(ref));  // exact: the difference of two floats fits a double
+    s.d2 = dot_d(d, d);
+    if (!(s.d2 > 0) || !std::isfinite(s.d2)) return s;
+    double dist = std::sqrt(s.d2);
+    Vec3d w = scale(d, 1.0 / dist);
+    s.wi = to_f(w);
+    s.dist = float(dist);
+    s.cos_light = -dot_d(to_d(n), w);
+    s.ok = s.cos_light > 0 && std::isfinite(s.dist) && s.dist > 0;
+    return s;
+}
+
+// Solid-angle density (per steradian, without selection) of a point sampled uniformly by area on a
+// surface of total area `area`: (1/area) d^2 / cos(theta_light). 0 where rejected.
+float area_density(const Seen& s, double area) {
+    if (!s.ok || !(area > 0)) return 0.0f;
+    double pdf = s.d2 / (area * s.cos_light);
+    return pdf < kMaxPdf ? float(pdf) : 0.0f;
+}
+
+// How a sphere looks from the reference point: from outside, the cone of directions it subtends.
+struct SphereView {
+    bool outside = false;
+    Vec3d axis;          // unit, ref -> centre
+    double dist = 0;     // |centre - ref|
+    double sin2_max = 0; // sin^2(theta_max) = r^2 / d^2
+    double omc = 0;      // 1 - cos(theta_max)
+    float cone_pdf = 0;  // 1 / (2 pi omc) per steradian; 0 if it would overflow
+};
+
+SphereView view_sphere(Vec3 ref, const Sphere& sph) {
+    SphereView v;
+    Vec3d d = sub(to_d(sph.center), to_d(ref));
+    double d2 = dot_d(d, d);
+    double r = std::abs(double(sph.radius));
+    if (!(d2 > r * r) || !std::isfinite(d2)) return v;  // inside or on the surface: area sampling
+    v.outside = true;
+    v.dist = std::sqrt(d2);
+    v.axis = scale(d, 1.0 / v.dist);
+    v.sin2_max = std::min(1.0, r * r / d2);
+    // 1 - cos = 1 - sqrt(1 - s^2) = s^2 / (1 + sqrt(1 - s^2)): no cancellation for any s, so no
+    // Taylor branch is needed for tiny or distant spheres (the veach_mi lights: r = 0.0333 at ~15
+    // units, s^2 = 5e-6, where 1 - sqrt(1 - s^2) in float would be off by several percent).
+    v.omc = v.sin2_max / (1.0 + std::sqrt(1.0 - v.sin2_max));
+    double pdf = v.omc > 0 ? 1.0 / (2.0 * kPiD * v.omc) : HUGE_VAL;
+    v.cone_pdf = pdf < kMaxPdf ? float(pdf) : 0.0f;
+    return v;
+}
+
+// Duff et al. 2017 orthonormal basis around a unit vector, in double.
+void basis_d(Vec3d n, Vec3d* s, Vec3d* t) {
+    double sign = std::copysign(1.0, n.z);
+    double a = -1.0 / (sign + n.z);
+    double b = n.x * n.y * a;
+    *s = {1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x};
+    *t = {b, sign + n.y * n.y * a, -n.y};
+}
+
+Vec3 sphere_normal(const Sphere& sph, Vec3 p) {
+    Vec3d d = sub(to_d(p), to_d(sph.center));
+    double len = std::sqrt(dot_d(d, d));
+    Vec3 n = len > 0 ? to_f(scale(d, 1.0 / len)) : Vec3(0, 0, 1);
+    return sph.flip_normals ? -n : n;
+}
+
+// Area of triangle i of a mesh (double, from the same cross product the normal uses).
+Vec3d triangle_cross(const Mesh& m, uint32_t tri) {
+    const uint32_t* idx = &m.indices[3 * size_t(tri)];
+    Vec3d p0 = to_d(m.positions[idx[0]]), p1 = to_d(m.positions[idx[1]]), p2 = to_d(m.positions[idx[2]]);
+    return cross_d(sub(p1, p0), sub(p2, p0));
+}
+
+double triangle_area(const Mesh& m, uint32_t tri) {
+    Vec3d c = triangle_cross(m, tri);
+    double a = 0.5 * std::sqrt(dot_d(c, c));
+    return std::isfinite(a) ? a : 0.0;  // a NaN/Inf vertex makes the triangle unusable, not the light
+}
+
+double mesh_area(const Mesh& m) {
+    double a = 0;
+    for (uint32_t t = 0; t < m.triangle_count(); ++t) a += triangle_area(m, t);
+    return a;
+}
+
+// Radius of the scene's bounding sphere, from scene.bounds_* if set, else from the geometry.
+double scene_radius(const Scene& scene) {
+    Vec3 lo = scene.bounds_min, hi = scene.bounds_max;
+    bool valid = is_finite(lo) && is_finite(hi) && lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z;
+    if (!valid) {
+        lo = Vec3(kInf);
+        hi = Vec3(-kInf);
+        for (const Mesh& m : scene.meshes)
+            for (Vec3 p : m.positions) {
+                lo = vmin(lo, p);
+                hi = vmax(hi, p);
+            }
+        for (const Sphere& s : scene.spheres) {
+            float r = std::abs(s.radius);
+            lo = vmin(lo, s.center - Vec3(r));
+            hi = vmax(hi, s.center + Vec3(r));
+        }
+        if (!(lo.x <= hi.x)) return 0.0;  // no geometry
+    }
+    Vec3d ext = sub(to_d(hi), to_d(lo));
+    return 0.5 * std::sqrt(dot_d(ext, ext));
+}
+
+bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2 u, LightSample* s) {
+    if (l.triangles.empty() || !(l.area > 0)) return false;
+    const Mesh& m = scene.meshes[l.shape];
+    uint32_t tri = l.triangles.sample(u_tri);
+    const uint32_t* idx = &m.indices[3 * size_t(tri)];
+    Vec3 p0 = m.positions[idx[0]], p1 = m.positions[idx[1]], p2 = m.positions[idx[2]];
+    Vec2 b = sample_uniform_triangle(u);
+    // Same interpolation as Scene::intersect, so a sampled point and a hit point agree.
+    Vec3 p = p0 * (1.0f - b.x - b.y) + p1 * b.x + p2 * b.y;
+    Vec3d c = triangle_cross(m, tri);
+    double len = std::sqrt(dot_d(c, c));
+    if (!(len > 0)) return false;  // unreachable: zero-area triangles have weight 0
+    Vec3 n = to_f(scale(c, 1.0 / len));
+    if (m.flip_normals) n = -n;
+    Seen seen = see_area_point(ref, p, n);
+    // Triangles are chosen in proportion to area and sampled uniformly, so the area density is
+    // 1/total area on every triangle.
+    float pdf = area_density(seen, l.area);
+    if (pdf <= 0) return false;
+    s->p = p;
+    s->n = n;
+    s->wi = seen.wi;
+    s->dist = seen.dist;
+    s->radiance = l.radiance;
+    s->pdf = pdf;
+    return true;
+}
+
+// Conditional density (per steradian, without selection) of the sphere sampler at point p, normal n.
+float sphere_density(const Sphere& sph, const Light& l, Vec3 ref, Vec3 p, Vec3 n) {
+    SphereView v = view_sphere(ref, sph);
+    Seen seen = see_area_point(ref, p, n);
+    if (!seen.ok) return 0.0f;
+    if (v.outside) return v.cone_pdf;
+    return area_density(seen, l.area);
+}
+
+bool sample_sphere(const Scene& scene, const Light& l, Vec3 ref, Vec2 u, LightSample* s) {
+    const Sphere& sph = scene.spheres[l.shape];
+    SphereView v = view_sphere(ref, sph);
+    double r = std::abs(double(sph.radius));
+    Vec3 p;
+    if (v.outside) {
+        if (v.cone_pdf <= 0) return false;
+        // Uniform direction in the subtended cone: the same mapping as sample_uniform_cone(u,
+        // OneMinusCos), here in double because the point on the sphere is derived from it.
+        double t = double(u.x) * v.omc;        // 1 - cos(theta)
+        double sin2 = t * (2.0 - t);           // sin^2(theta)
+        double cos_theta = 1.0 - t;
+        // The point the direction hits, without intersecting a ray (pbrt-v4's method): by the law of
+        // cosines in the triangle (ref, centre, hit), the hit lies at angle alpha from the centre's
+        // direction back to ref, with cos(alpha) = sin^2(theta)/sin(theta_max)
+        //   + cos(theta) sqrt(1 - sin^2(theta)/sin^2(theta_max)).
+        // Unlike a ray-sphere test this never misses at the cone's rim, where the discriminant of the
+        // quadratic cancels catastrophically.
+        double sin_max = std::sqrt(v.sin2_max);
+        double cos_alpha = sin2 / sin_max + cos_theta * std::sqrt(std::max(0.0, 1.0 - sin2 / v.sin2_max));
+        cos_alpha = std::min(1.0, std::max(-1.0, cos_alpha));
+        double sin_alpha = std::sqrt(std::max(0.0, 1.0 - cos_alpha * cos_alpha));
+        double phi = 2.0 * kPiD * double(u.y);
+        Vec3d e1, e2;
+        basis_d(v.axis, &e1, &e2);
+        // Seen from the centre, the hit has the same azimuth about the axis as the direction from ref.
+        double ca = sin_alpha * std::cos(phi), sa = sin_alpha * std::sin(phi);
+        Vec3d local = {ca * e1.x + sa * e2.x - cos_alpha * v.axis.x, ca * e1.y + sa * e2.y - cos_alpha * v.axis.y,
+                       ca * e1.z + sa * e2.z - cos_alpha * v.axis.z};
+        Vec3d c = to_d(sph.center);
+        p = to_f({c.x + r * local.x, c.y + r * local.y, c.z + r * local.z});
+    } else {
+        // Inside (or on) the sphere every point may be visible: uniform by area.
+        if (!(l.area > 0)) return false;
+        Vec3 w = sample_uniform_sphere(u);
+        p = sph.center + w * float(r);
+    }
+    Vec3 n = sphere_normal(sph, p);
+    float pdf = sphere_density(sph, l, ref, p, n);
+    if (pdf <= 0) return false;
+    Seen seen = see_area_point(ref, p, n);
+    s->p = p;
+    s->n = n;
+    s->wi = seen.wi;
+    s->dist = seen.dist;
+    s->radiance = l.radiance;
+    s->pdf = pdf;
+    return true;
+}
+
+}  // namespace
+
+RGB light_emitted(const Light& l, Vec3 n, Vec3 w) {
+    switch (l.type) {
+        case LightType::AreaMesh:
+        case LightType::AreaSphere: return dot(n, w) > 0 ? l.radiance : RGB(0);
+        case LightType::Constant: return l.radiance;
+        case LightType::Point: return RGB(0);  // cannot be hit by a ray
+    }
+    return RGB(0);
+}
+
+RGB light_power(const Scene& scene, const Light& l) {
+    // One-sided Lambertian emitters: the radiant exitance is pi L, so the power is pi A L.
+    switch (l.type) {
+        case LightType::AreaMesh: {
+            double area = l.area > 0 ? double(l.area)
+                                     : (l.shape < scene.meshes.size() ? mesh_area(scene.meshes[l.shape]) : 0.0);
+            return l.radiance * float(kPiD * area);
+        }
+        case LightType::AreaSphere: {
+            double r = l.shape < scene.spheres.size() ? double(scene.spheres[l.shape].radius) : 0.0;
+            return l.radiance * float(kPiD * 4.0 * kPiD * r * r);
+        }
+        case LightType::Point: return l.radiance * float(4.0 * kPiD);  // isotropic intensity over 4 pi sr
+        case LightType::Constant: {
+            // The flux through the scene's bounding sphere of radius R: a disk of area pi R^2 facing
+            // each direction, times 4 pi sr of incoming directions (as pbrt and Mitsuba estimate it).
+            double radius = scene_radius(scene);
+            return l.radiance * float(kPiD * radius * radius * 4.0 * kPiD);
+        }
+    }
+    return RGB(0);
+}
+
+void lights_prepare(Scene& scene) {
+    scene.environment_light = -1;
+    std::vector<float> weights(scene.lights.size(), 0.0f);
+    for (size_t i = 0; i < scene.lights.size(); ++i) {
+        Light& l = scene.lights[i];
+        const std::string who = "light " + std::to_string(i);
+        switch (l.type) {
+            case LightType::AreaMesh: {
+                if (l.shape >= scene.meshes.size()) throw std::runtime_error(who + ": mesh index out of range");
+                const Mesh& m = scene.meshes[l.shape];
+                std::vector<float> areas(m.triangle_count());
+                for (uint32_t t = 0; t < m.triangle_count(); ++t) areas[t] = float(triangle_area(m, t));
+                l.triangles = Distribution1D(areas);
+                l.area = float(l.triangles.total());
+                break;
+            }
+            case LightType::AreaSphere: {
+                if (l.shape >= scene.spheres.size()) throw std::runtime_error(who + ": sphere index out of range");
+                double r = scene.spheres[l.shape].radius;
+                l.area = float(4.0 * kPiD * r * r);
+                break;
+            }
+            case LightType::Point: break;
+            case LightType::Constant:
+                if (scene.environment_light >= 0)
+                    throw std::runtime_error(who + ": only one environment emitter is allowed per scene");
+                scene.environment_light = int(i);
+                break;
+        }
+        float w = luminance(light_power(scene, l)) * l.sampling_weight;
+        if (!std::isfinite(w)) throw std::runtime_error(who + ": power is not finite");
+        weights[i] = std::max(w, 0.0f);  // zero (or negative) power: never chosen
+    }
+    scene.light_selection = Distribution1D(weights);
+}
+
+float light_selection_pmf(const Scene& scene, uint32_t light) { return scene.light_selection.pmf(light); }
+
+bool sample_light(const Scene& scene, Vec3 ref, float u_sel, Vec2 u, LightSample* s) {
+    *s = LightSample{};
+    if (scene.light_selection.empty()) return false;
+    float u_rest;  // u_sel rescaled inside the chosen light's bin: reused to pick a triangle
+    uint32_t i = scene.light_selection.sample(u_sel, &u_rest);
+    float pmf = scene.light_selection.pmf(i);
+    if (!(pmf > 0)) return false;
+    const Light& l = scene.lights[i];
+    bool ok = false;
+    switch (l.type) {
+        case LightType::AreaMesh: ok = sample_mesh(scene, l, ref, u_rest, u, s); break;
+        case LightType::AreaSphere: ok = sample_sphere(scene, l, ref, u, s); break;
+        case LightType::Point: {
+            Vec3d d = sub(to_d(l.position), to_d(ref));
+            double d2 = dot_d(d, d);
+            if (!(d2 > 0) || !std::isfinite(d2)) break;
+            double dist = std::sqrt(d2);
+            RGB radiance = l.radiance * float(1.0 / d2);
+            if (!is_finite(radiance)) break;  // reference point (nearly) on the light
+            s->p = l.position;
+            s->n = Vec3(0);
+            s->wi = to_f(scale(d, 1.0 / dist));
+            s->dist = float(dist);
+            s->radiance = radiance;
+            s->pdf = 1.0f;
+            s->delta = true;
+            ok = true;
+            break;
+        }
+        case LightType::Constant: {
+            s->wi = sample_uniform_sphere(u);
+            s->p = Vec3(0);
+            s->n = Vec3(0);
+            s->dist = kInf;
+            s->radiance = l.radiance;
+            s->pdf = kInv4Pi;
+            ok = true;
+            break;
+        }
+    }
+    if (!ok) {
+        *s = LightSample{};
+        return false;
+    }
+    s->pdf *= pmf;  // same product, same order as light_pdf
+    s->light = i;
+    if (!(s->pdf > 0)) {  // underflow: light_pdf reports 0 for this point too
+        *s = LightSample{};
+        return false;
+    }
+    return true;
+}
+
+float light_pdf(const Scene& scene, uint32_t light, Vec3 ref, Vec3 p, Vec3 n, Vec3 wi) {
+    if (light >= scene.lights.size()) return 0.0f;
+    float pmf = light_selection_pmf(scene, light);
+    if (!(pmf > 0)) return 0.0f;
+    const Light& l = scene.lights[light];
+    float pdf = 0;
+    switch (l.type) {
+        case LightType::AreaMesh:
+            if (l.triangles.empty()) return 0.0f;
+            pdf = area_density(see_area_point(ref, p, n), l.area);
+            break;
+        case LightType::AreaSphere: pdf = sphere_density(scene.spheres[l.shape], l, ref, p, n); break;
+        case LightType::Point: pdf = 1.0f; break;  // the delta's mass, as LightSample::pdf reports it
+        case LightType::Constant: pdf = kInv4Pi; break;
+    }
+    return pdf * pmf;
+}
+
 }  // namespace iris

@@ -43,18 +43,31 @@ struct LightSample {
 // (w points away from the light). Zero on the back side.
 RGB light_emitted(const Light& l, Vec3 n, Vec3 w);
 
-// Total emitted power in W (RGB), used for light selection and photon flux.
+// Total emitted power in W (RGB), used for light selection and photon flux. One-sided Lambertian area
+// emitters: pi A L (mesh), pi 4 pi r^2 L (sphere); point: 4 pi I; constant environment: pi R^2 4 pi L
+// with R the radius of the scene's bounding sphere (from scene.bounds_*, or from the meshes and spheres
+// when the bounds are unset).
 RGB light_power(const Scene& scene, const Light& l);
 
-// Builds per-light tables (triangle CDFs, areas) and the scene's power-proportional selection table.
+// Builds per-light tables (triangle CDFs, areas), scene.environment_light, and the selection table
+// scene.light_selection in proportion to luminance(power) * sampling_weight (zero power: never chosen).
+// Throws std::runtime_error for a shape index out of range, non-finite power, or a second environment.
 void lights_prepare(Scene& scene);
 
-// Chooses a light (by power) and a point on it as seen from `ref`. u_sel selects the light, u the point.
+// Chooses a light (by power) and a point on it as seen from `ref`. u_sel selects the light (and, rescaled,
+// a mesh light's triangle), u the point. Returns false (and a zeroed *s) when the sample carries no
+// light: no light with power, the point faces away from ref (emitters radiate on their normal side
+// only), coincides with ref, or its density would overflow a float. Never yields NaN or Inf.
+// Sphere lights seen from outside are sampled uniformly in the cone they subtend; from inside (or on
+// the surface) uniformly by area. For the environment, p and n are zero and dist is infinite.
 bool sample_light(const Scene& scene, Vec3 ref, float u_sel, Vec2 u, LightSample* s);
 
 // Density per steradian (including selection) with which sample_light would produce the point `p`
-// with normal `n` on light `light`, seen from `ref` (for MIS when a BSDF-sampled ray hits a light).
-// For the environment, p and n are ignored and wi is the direction.
+// with normal `n` (the emitter's geometric normal, flipped as Mesh/Sphere::flip_normals says) on light
+// `light`, seen from `ref` (for MIS when a BSDF-sampled ray hits a light). It equals the pdf that
+// sample_light reports for that point, bit for bit, and is 0 wherever sample_light would reject.
+// For the environment, p and n are ignored and wi is the direction. For a point light (which no ray
+// can hit) it returns the selection probability, the mass of the delta, as LightSample::pdf does.
 float light_pdf(const Scene& scene, uint32_t light, Vec3 ref, Vec3 p, Vec3 n, Vec3 wi);
 
 // Probability that sample_light picks `light`.

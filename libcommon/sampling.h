@@ -32,10 +32,27 @@ inline float cosine_hemisphere_pdf(float cos_theta) { return cos_theta > 0 ? cos
 Vec2 invert_cosine_hemisphere(Vec3 w);
 
 // Uniform direction inside the cone around +z with cos(half-angle) = cos_max.
-// PDF per steradian: 1/(2 pi (1 - cos_max)).
+// PDF per steradian: 1/(2 pi (1 - cos_max)) inside the cone, 0 outside (the pdf functions return
+// the in-cone value; callers know whether their direction is inside). A degenerate cone
+// (1 - cos_max <= 0) is a delta with no density: the pdf is then 0 and sample returns +z.
 Vec3 sample_uniform_cone(Vec2 u, float cos_max);
 float uniform_cone_pdf(float cos_max);
 Vec2 invert_uniform_cone(Vec3 w, float cos_max);
+
+// The same cone given by 1 - cos_max instead of cos_max. For narrow cones (a small light far away)
+// cos_max is within a few float ULPs of 1, so 1 - cos_max computed from a float cos_max has a large
+// relative error (0.0333-radius sphere at 15 units: ~2 %); callers that can compute 1 - cos_max
+// accurately (e.g. sin^2/(1 + cos)) pass it here and keep full precision in samples and pdf.
+struct OneMinusCos {
+    float value;  // 1 - cos(half-angle), in [0, 2]
+};
+Vec3 sample_uniform_cone(Vec2 u, OneMinusCos omc);
+float uniform_cone_pdf(OneMinusCos omc);
+Vec2 invert_uniform_cone(Vec3 w, OneMinusCos omc);
+// 1 - w.z for a unit vector, accurate near the +z pole (uses x^2 + y^2 = (1 - z)(1 + z) there).
+inline float one_minus_cos_theta(Vec3 w) {
+    return w.z > 0.5f ? (w.x * w.x + w.y * w.y) / (1.0f + w.z) : 1.0f - w.z;
+}
 
 // Uniform point on a triangle as barycentrics (b1, b2); b0 = 1 - b1 - b2 (Heitz 2019's area-preserving
 // square-to-triangle map, which has no sqrt and an exact inverse). PDF per unit area: 1/area.
@@ -44,13 +61,20 @@ Vec2 invert_uniform_triangle(Vec2 b);
 
 // Piecewise-constant discrete distribution over n items with non-negative weights.
 // sample() returns an index with probability weight[i]/sum and rescales u for reuse.
+// Weights must be finite and >= 0 (the constructor throws std::invalid_argument otherwise: a NaN
+// weight would silently bias every estimate that uses the table). Bins of weight 0 are never
+// returned. With no positive weight the distribution is empty(): sample() then returns 0 and callers
+// must check empty() first.
 class Distribution1D {
 public:
     Distribution1D() = default;
     explicit Distribution1D(const std::vector<float>& weights);
-    // Index with probability pmf(i); `u_remapped` (if given) receives u rescaled to [0,1) inside the bin.
+    // Index with probability pmf(i) for u in [0,1) (u outside is clamped); `u_remapped` (if given)
+    // receives u rescaled to [0,1) inside the chosen bin, uniform and independent of the index.
     uint32_t sample(float u, float* u_remapped = nullptr) const;
-    float pmf(uint32_t i) const { return func_.empty() || total_ <= 0 ? 0.0f : float(func_[i] / total_); }
+    float pmf(uint32_t i) const {
+        return i >= func_.size() || total_ <= 0 ? 0.0f : float(func_[i] / total_);
+    }
     double total() const { return total_; }
     uint32_t size() const { return uint32_t(func_.size()); }
     bool empty() const { return func_.empty() || total_ <= 0; }

@@ -1,9 +1,11 @@
 // Spectrum -> linear RGB, exactly as Mitsuba 0.5 does in its RGB mode (no white balance):
 // the piecewise-linear spectrum times each CIE 1931 2-degree matching function is integrated with an
 // adaptive Gauss-Lobatto rule (rel./abs. tolerance 1e-4, at most 10000 evaluations) separately over
-// 50 nm sub-intervals of [360, 830] nm, divided by the integral of y-bar, and mapped XYZ -> linear
-// sRGB (Rec. 709 primaries, D65 white). A spectrum that ends at its last sample jumps to zero there;
-// the adaptive rule lands on Mitsuba's values across that jump (seed-scenes/README.md).
+// 10 pieces of 47 nm ("50 nm-sized regions") of [360, 830] nm, divided by the integral of y-bar, and
+// mapped XYZ -> linear sRGB (Rec. 709 primaries, D65 white). Two Mitsuba quirks matter and are
+// reproduced (details and evidence at the top of spectrum.cpp): the scene parser zero-extends a sampled
+// spectrum by one sample at the mean spacing on each side, and Mitsuba interpolates each segment of a
+// sampled curve backwards; with those, the README's measured emitter values come out to five digits.
 #pragma once
 
 #include <string>
@@ -13,10 +15,13 @@
 
 namespace iris {
 
-// Sampled spectrum given as (wavelength nm, value) pairs, sorted by wavelength; zero outside.
+// Sampled spectrum given as (wavelength nm, value) pairs, strictly increasing wavelengths, at least two
+// samples (std::invalid_argument otherwise), as a Mitsuba 0.5 <spectrum value="l:v, ..."> converts it.
 RGB spectrum_to_rgb(const std::vector<float>& wavelengths, const std::vector<float>& values);
 
-// Exact integral of the piecewise-linear spectrum against the CIE tables (for tests and comparison).
+// Exact integral of the (correctly) linearly interpolated spectrum, zero outside its first/last
+// sample, against the linearly interpolated CIE tables, divided by the integral of y-bar; no zero
+// extension, no clamping, double precision (for tests and comparison).
 RGB spectrum_to_rgb_exact(const std::vector<float>& wavelengths, const std::vector<float>& values);
 
 // CIE 1931 XYZ -> linear sRGB / Rec. 709.

@@ -19,7 +19,7 @@ namespace {
 
 // The first non-specular surface seen through film position (fx, fy), following specular bounces.
 bool camera_cache(const Scene& scene, const Camera& cam, float fx, float fy, int w, int h, int max_specular,
-                  Rng& rng, CachePoint* out) {
+                  Rng& rng, Vec3* position, Vec3* normal) {
     Ray ray;
     ray.o = cam.origin;
     ray.d = camera_direction(cam, fx, fy, w, h);
@@ -31,9 +31,8 @@ bool camera_cache(const Scene& scene, const Camera& cam, float fx, float fy, int
         if (!scene.intersect(ray, &hit)) return false;
         const Bsdf& b = scene.bsdfs[hit.bsdf];
         if (!bsdf_is_delta(b)) {
-            out->position = hit.p;
-            out->normal = dot(hit.ng, ray.d) < 0 ? hit.ng : -hit.ng;
-            out->origin = CacheOrigin::Camera;
+            *position = hit.p;
+            *normal = dot(hit.ng, ray.d) < 0 ? hit.ng : -hit.ng;
             return true;
         }
         // Specular: reflect or refract as the BSDF would (chosen by Fresnel), and keep going.
@@ -71,8 +70,10 @@ size_t occupied_cells(const std::vector<Vec3>& pts, const std::vector<uint32_t>&
 
 }  // namespace
 
-std::vector<CachePoint> place_caches(const Scene& scene, const std::vector<Vec3>& pp, const std::vector<Vec3>& pn,
-                                     const PlacementOptions& o, PlacementStats* stats) {
+CachePoints place_caches(const Scene& scene, const PhotonMap& photons, const PlacementOptions& o,
+                         PlacementStats* stats) {
+    const std::vector<Vec3>& pp = photons.position;
+    const std::vector<Vec3>& pn = photons.normal;
     if (o.count == 0) throw std::runtime_error("--count must be positive");
     if (o.camera_stride < 0) throw std::runtime_error("--camera-stride must be >= 0");
     if (pp.size() != pn.size()) throw std::runtime_error("photon positions and normals differ in length");
@@ -83,11 +84,16 @@ std::vector<CachePoint> place_caches(const Scene& scene, const std::vector<Vec3>
     Camera cam = scene.camera;
     camera_prepare(cam, w, h);
 
-    std::vector<CachePoint> caches;
+    CachePoints caches;
+    auto add = [&](Vec3 p, Vec3 n, uint8_t origin) {
+        caches.position.push_back(p);
+        caches.normal.push_back(n);
+        caches.origin.push_back(origin);
+    };
     if (o.camera_stride > 0) {
         const int bx = (w + o.camera_stride - 1) / o.camera_stride, by = (h + o.camera_stride - 1) / o.camera_stride;
-        std::vector<CachePoint> blocks(size_t(bx) * by);
-        std::vector<uint8_t> ok(blocks.size(), 0);
+        std::vector<Vec3> bp(size_t(bx) * by), bn(size_t(bx) * by);
+        std::vector<uint8_t> ok(bp.size(), 0);
         tbb::parallel_for(0, by, [&](int y) {
             for (int x = 0; x < bx; ++x) {
                 size_t i = size_t(y) * bx + x;
@@ -95,11 +101,11 @@ std::vector<CachePoint> place_caches(const Scene& scene, const std::vector<Vec3>
                 // A jittered position inside the block, so caches do not line up on a regular grid.
                 float fx = std::min(float(w), (x + rng.next_float()) * o.camera_stride);
                 float fy = std::min(float(h), (y + rng.next_float()) * o.camera_stride);
-                ok[i] = camera_cache(scene, cam, fx, fy, w, h, o.max_specular, rng, &blocks[i]);
+                ok[i] = camera_cache(scene, cam, fx, fy, w, h, o.max_specular, rng, &bp[i], &bn[i]);
             }
         });
-        for (size_t i = 0; i < blocks.size(); ++i)
-            if (ok[i]) caches.push_back(blocks[i]);
+        for (size_t i = 0; i < bp.size(); ++i)
+            if (ok[i]) add(bp[i], bn[i], kCacheFromCamera);
     }
     uint32_t n_camera = uint32_t(caches.size());
     double cell = 0;
@@ -124,7 +130,7 @@ std::vector<CachePoint> place_caches(const Scene& scene, const std::vector<Vec3>
         for (uint32_t i : order) {
             if (taken.size() >= want) break;
             CellKey k = cell_of(pp[i], lo, hsize);
-            if (taken.emplace(k, i).second) caches.push_back({pp[i], pn[i], CacheOrigin::Photon});
+            if (taken.emplace(k, i).second) add(pp[i], pn[i], kCacheFromPhoton);
         }
     }
     if (stats) {

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "libcommon/math.h"
+#include "formats/cache_points.h"
+#include "formats/photon_map.h"
 #include "libcommon/scene.h"
 
 namespace iris {
@@ -21,23 +23,13 @@ struct PlacementOptions {
     bool quiet = false;
 };
 
-enum class CacheOrigin : uint8_t { Camera = 0, Photon = 1 };
-
-struct CachePoint {
-    Vec3 position;
-    Vec3 normal;  // unit, on the side of the surface the cache serves
-    CacheOrigin origin;
-};
-
 struct PlacementStats {
     uint32_t camera = 0, photon = 0;
     double cell_size = 0;  // spacing of the photon-cache grid, world units
     double seconds = 0;
 };
 
-// `photon_positions`/`photon_normals`: the photon map (normals oriented towards the incident side).
-std::vector<CachePoint> place_caches(const Scene& scene, const std::vector<Vec3>& photon_positions,
-                                     const std::vector<Vec3>& photon_normals, const PlacementOptions& opts,
-                                     PlacementStats* stats);
+CachePoints place_caches(const Scene& scene, const PhotonMap& photons, const PlacementOptions& opts,
+                         PlacementStats* stats);
 
 }  // namespace iris

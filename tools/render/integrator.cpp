@@ -27,12 +27,14 @@ inline bool consistent_side(Vec3 w_world, Vec3 ng, float local_z) { return dot(w
 }  // namespace
 
 RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSettings& ps, PathCounters& counters) {
+    const Guide* guide = ps.guide;
+    const bool use_nee = ps.mode != GuideMode::BsdfCache;
     RGB L(0.0f), beta(1.0f);
     Ray ray = camera_ray;
-    float prev_pdf = 0;        // pdf of the BSDF sample that created `ray` (per steradian)
+    float prev_pdf = 0;        // density of the technique mix that created `ray` (per steradian)
     bool prev_delta = true;    // camera rays and delta bounces: emitters hit are counted fully
     Vec3 prev_p = ray.o;
-    float eta_scale = 1.0f;    // product of relative IORs crossed, for Russian roulette (Mitsuba)
+    float eta_scale = 1.0f;    // product of relative IORs^2 crossed, for Russian roulette (Mitsuba)
     SurfaceHit hit;
     for (int depth = 1;; ++depth) {
         ++counters.rays;
@@ -41,7 +43,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 const Light& env = scene.lights[scene.environment_light];
                 RGB le = light_emitted(env, Vec3(0), -ray.d);
                 float w = 1.0f;
-                if (!prev_delta)
+                if (!prev_delta && use_nee)
                     w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(scene.environment_light), prev_p,
                                                             Vec3(0), Vec3(0), ray.d));
                 L += beta * le * w;
@@ -55,7 +57,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             RGB le = light_emitted(light, hit.ng, wi_world);
             if (!is_black(le)) {
                 float w = 1.0f;
-                if (!prev_delta)
+                if (!prev_delta && use_nee)
                     w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(hit.light), prev_p, hit.p, hit.ng, ray.d));
                 L += beta * le * w;
             }
@@ -65,9 +67,24 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         const Bsdf& bsdf = scene.bsdfs[hit.bsdf];
         Vec3 wi = hit.frame.to_local(wi_world);
         if (wi.z == 0) break;
+        const bool delta_only = bsdf_is_delta(bsdf);
 
-        // Next-event estimation (only where the BSDF has a non-delta part).
-        if (!bsdf_is_delta(bsdf)) {
+        // The cache serving this vertex, and the probability alpha of BSDF sampling in the one-sample
+        // mixture p_mix = alpha p_bsdf + (1 - alpha) p_cache (DESIGN 4.3). alpha = 1: unguided.
+        int cache = -1;
+        float alpha = 1.0f;
+        if (guide && !delta_only) {
+            Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
+            cache = guide->lookup(hit.p, n_side);
+            if (cache >= 0) alpha = ps.mode == GuideMode::NeeCache ? 0.0f : guide->bsdf_fraction(cache);
+        }
+        auto mix_pdf = [&](Vec3 wo_local, Vec3 wo_world, float p_bsdf) {
+            return cache < 0 ? p_bsdf : alpha * p_bsdf + (1 - alpha) * guide->pdf(cache, wo_world);
+        };
+
+        // Next-event estimation (only where the BSDF has a non-delta part), MIS-weighted against the
+        // continuation's full mixture density.
+        if (use_nee && !delta_only) {
             LightSample ls;
             float u_sel = rng.next_float();
             Vec2 u_light{rng.next_float(), rng.next_float()};
@@ -87,7 +104,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                             blocked = scene.occluded(from, to);
                         }
                         if (!blocked) {
-                            float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, bsdf_pdf(bsdf, wi, wo));
+                            float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, mix_pdf(wo, ls.wi, bsdf_pdf(bsdf, wi, wo)));
                             L += beta * f * ls.radiance * (w / ls.pdf);
                         }
                     }
@@ -95,18 +112,55 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             }
         }
 
-        // Continue the path by sampling the BSDF.
-        BsdfSample bs;
+        // Continue the path: BSDF sampling, or (guided) a one-sample choice between BSDF and cache.
         float uc = rng.next_float();
         Vec2 u{rng.next_float(), rng.next_float()};
-        if (!bsdf_sample(bsdf, wi, u, uc, &bs)) break;
-        Vec3 wo_world = hit.frame.to_world(bs.wo);
-        if (!consistent_side(wo_world, hit.ng, bs.wo.z)) break;
-        beta *= bs.weight;
+        Vec3 wo_world;
+        if (cache < 0) {
+            BsdfSample bs;
+            if (!bsdf_sample(bsdf, wi, u, uc, &bs)) break;
+            wo_world = hit.frame.to_world(bs.wo);
+            if (!consistent_side(wo_world, hit.ng, bs.wo.z)) break;
+            beta *= bs.weight;
+            eta_scale *= bs.eta * bs.eta;
+            prev_pdf = bs.pdf;
+            prev_delta = bs.delta;
+        } else {
+            Vec3 wo;
+            if (uc < alpha) {
+                // BSDF technique; uc is rescaled to stay uniform for the BSDF's own lobe choice.
+                BsdfSample bs;
+                if (!bsdf_sample(bsdf, wi, u, uc / alpha, &bs)) break;
+                wo = bs.wo;
+                wo_world = hit.frame.to_world(wo);
+                if (!consistent_side(wo_world, hit.ng, wo.z)) break;
+                eta_scale *= bs.eta * bs.eta;
+                if (bs.delta) {
+                    // A Dirac lobe can only come from the BSDF technique: no MIS, divide by its choice.
+                    beta *= bs.weight / alpha;
+                    prev_pdf = bs.pdf;
+                    prev_delta = true;
+                } else {
+                    float p = mix_pdf(wo, wo_world, bs.pdf);
+                    if (!(p > 0)) break;
+                    beta *= bsdf_eval(bsdf, wi, wo) / p;
+                    prev_pdf = p;
+                    prev_delta = false;
+                }
+            } else {
+                float p_cache;
+                wo_world = guide->sample(cache, u, &p_cache);
+                wo = hit.frame.to_local(wo_world);
+                if (!(p_cache > 0) || !consistent_side(wo_world, hit.ng, wo.z)) break;
+                float p = alpha * bsdf_pdf(bsdf, wi, wo) + (1 - alpha) * p_cache;
+                RGB f = bsdf_eval(bsdf, wi, wo);
+                if (is_black(f)) break;
+                beta *= f / p;
+                prev_pdf = p;
+                prev_delta = false;
+            }
+        }
         if (is_black(beta)) break;
-        eta_scale *= bs.eta * bs.eta;
-        prev_pdf = bs.pdf;
-        prev_delta = bs.delta;
         prev_p = hit.p;
         ray = spawn_ray(hit, wo_world);
 
@@ -133,6 +187,9 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     Camera camera = scene.camera;
     camera_prepare(camera, width, height);
     PathSettings ps;
+    ps.guide = opt.guide;
+    ps.mode = opt.guide ? opt.mode : GuideMode::NeeBsdf;
+    if (!opt.guide && opt.mode == GuideMode::BsdfCache) ps.mode = GuideMode::BsdfCache;
     ps.max_depth = opt.max_depth >= -1 ? opt.max_depth : scene.defaults.max_depth;
     ps.rr_depth = opt.rr_depth >= -1 ? opt.rr_depth : scene.defaults.rr_depth;
     if (ps.rr_depth < 0) ps.rr_depth = 1 << 30;
@@ -253,6 +310,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     img.metadata["iris:command_line"] = opt.command_line;
     img.metadata["iris:version"] = IRIS_VERSION;
     img.metadata["iris:tool"] = "render";
+    img.metadata["iris:mode"] = guide_mode_name(ps.mode);
     if (stats) {
         stats->spp = spp;
         stats->seconds = seconds;

@@ -8,6 +8,7 @@
 
 #include "formats/exr.h"
 #include "libcommon/scene.h"
+#include "tools/render/guide.h"
 
 namespace iris {
 
@@ -23,6 +24,8 @@ struct RenderOptions {
     bool samples_layer = false;   // add "samples": samples taken per pixel
     bool quiet = false;
     std::string command_line;     // recorded in the output's metadata
+    const Guide* guide = nullptr; // cache atlas to guide with (null = unguided)
+    GuideMode mode = GuideMode::NeeBsdfCache;  // how techniques combine when guided
 };
 
 struct RenderStats {
@@ -38,6 +41,8 @@ struct RenderStats {
 struct PathSettings {
     int max_depth = -1;
     int rr_depth = 5;
+    const Guide* guide = nullptr;
+    GuideMode mode = GuideMode::NeeBsdf;
 };
 
 // Counters kept per worker and summed at the end.

@@ -4,38 +4,19 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
-#include <unistd.h>
+#include <memory>
 
 #include "formats/exr.h"
 #include "formats/scene_xml.h"
+#include "formats/cache_atlas.h"
+#include "libcommon/tool_util.h"
 #include "tools/render/integrator.h"
 
-namespace {
-
-std::string join_args(int argc, char** argv) {
-    std::string s;
-    for (int i = 0; i < argc; ++i) {
-        if (i) s += ' ';
-        s += argv[i];
-    }
-    return s;
-}
-
-// The directory of `path` must exist and be writable; checked before hours of rendering, not after.
-void check_output_path(const std::string& path) {
-    namespace fs = std::filesystem;
-    fs::path dir = fs::path(path).parent_path();
-    if (dir.empty()) dir = ".";
-    if (!fs::is_directory(dir)) throw std::runtime_error(path + ": output directory does not exist");
-    if (access(dir.c_str(), W_OK) != 0) throw std::runtime_error(path + ": output directory is not writable");
-    if (fs::is_directory(path)) throw std::runtime_error(path + ": output path is a directory");
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
     iris::RenderOptions opt;
-    std::string scene_path, output, resolution;
+    std::string scene_path, output, resolution, atlas_path, mode = "nee+bsdf+cache";
+    float bsdf_fraction = 0.25f;
     std::vector<std::string> defines;
     CLI::App app{"render: path-trace a Mitsuba scene (NEE + BSDF sampling, MIS) into a linear OpenEXR image"};
     app.set_version_flag("--version", std::string("iris render ") + IRIS_VERSION);
@@ -51,6 +32,11 @@ int main(int argc, char** argv) {
     app.add_flag("--variance", opt.variance_layer, "Add layers variance.R/G/B (variance of each pixel's estimate)");
     app.add_flag("--sample-count", opt.samples_layer, "Add a layer 'samples' with the samples per pixel");
     app.add_option("-D,--define", defines, "Scene parameter name=value (for $name in the scene file)");
+    app.add_option("--atlas", atlas_path, "Cache atlas from fill-caches: guide the path tracer with it");
+    app.add_option("--mode", mode,
+                   "How sampling techniques combine: nee+bsdf | nee+cache | bsdf+cache | nee+bsdf+cache "
+                   "(default with --atlas; without an atlas: nee+bsdf, or bsdf+cache = BSDF sampling only)");
+    app.add_option("--bsdf-fraction", bsdf_fraction, "Probability of BSDF sampling where a cache guides (0..1)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     try {
         app.parse(argc, argv);
@@ -68,15 +54,25 @@ int main(int argc, char** argv) {
             opt.width = w;
             opt.height = h;
         }
-        check_output_path(output);
+        iris::check_output_path(output);
+        opt.mode = iris::parse_guide_mode(mode);
+        if (!(bsdf_fraction >= 0 && bsdf_fraction < 1)) throw std::runtime_error("--bsdf-fraction must be in [0, 1)");
         iris::SceneLoadOptions lo;
         for (const std::string& d : defines) {
             auto eq = d.find('=');
             if (eq == std::string::npos || eq == 0) throw std::runtime_error("-D expects name=value, got \"" + d + "\"");
             lo.parameters[d.substr(0, eq)] = d.substr(eq + 1);
         }
-        opt.command_line = join_args(argc, argv);
+        opt.command_line = iris::join_args(argc, argv);
         iris::Scene scene = iris::load_scene(scene_path, lo);
+        std::unique_ptr<iris::Guide> guide;
+        if (!atlas_path.empty() && opt.mode != iris::GuideMode::NeeBsdf) {
+            iris::CacheAtlasFile f = iris::read_cache_atlas(atlas_path, scene.fingerprint);
+            guide = std::make_unique<iris::Guide>(std::move(f.atlas), bsdf_fraction);
+            opt.guide = guide.get();
+        } else if (atlas_path.empty() && (opt.mode == iris::GuideMode::NeeCache)) {
+            throw std::runtime_error("--mode nee+cache needs --atlas");
+        }
         iris::RenderStats stats;
         iris::Image img = iris::render_image(scene, opt, &stats);
         iris::write_exr(output, img);

@@ -16,6 +16,12 @@ namespace iris {
 
 namespace {
 
+// One stored photon while tracing (array of structures: a chunk appends whole photons).
+struct Photon {
+    Vec3 position, direction, normal;
+    RGB power;
+};
+
 constexpr uint64_t kChunk = 1024;  // paths per work item; photons of a chunk are kept in path order
 
 // Traces one photon path and appends its photons to `out`.
@@ -41,7 +47,8 @@ void trace_one(const Scene& scene, const PhotonOptions& o, uint64_t index, std::
                 ++*nonfinite;
                 return;
             }
-            out.push_back({hit.p, wi_world, hit.ng, beta});
+            // The normal is stored facing the side the photon arrived from (the photon map contract).
+            out.push_back({hit.p, wi_world, dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng, beta});
         }
         if (o.max_depth >= 0 && depth == o.max_depth) return;
         Vec3 wi = hit.frame.to_local(wi_world);
@@ -70,7 +77,7 @@ void trace_one(const Scene& scene, const PhotonOptions& o, uint64_t index, std::
 
 }  // namespace
 
-std::vector<Photon> trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats* stats) {
+PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats* stats) {
     if (o.paths == 0) throw std::runtime_error("--paths must be positive");
     if (o.rr_depth < 1) throw std::runtime_error("--rr-depth must be at least 1");
     if (!(o.cutoff >= 0 && o.cutoff < 1)) throw std::runtime_error("--cutoff must be in [0, 1)");
@@ -92,9 +99,22 @@ std::vector<Photon> trace_photons(const Scene& scene, const PhotonOptions& o, Ph
     });
     size_t total = 0;
     for (auto& p : parts) total += p.size();
-    std::vector<Photon> photons;
-    photons.reserve(total);
-    for (auto& p : parts) photons.insert(photons.end(), p.begin(), p.end());
+    PhotonMap photons;
+    photons.emitted_paths = o.paths;
+    photons.max_depth = o.max_depth;
+    photons.position.reserve(total);
+    photons.direction.reserve(total);
+    photons.normal.reserve(total);
+    photons.power.reserve(total);
+    for (auto& part : parts) {
+        for (const Photon& ph : part) {
+            photons.position.push_back(ph.position);
+            photons.direction.push_back(ph.direction);
+            photons.normal.push_back(ph.normal);
+            photons.power.push_back(ph.power);
+        }
+        std::vector<Photon>().swap(part);
+    }
     double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     progress.finish(std::to_string(total) + " photons");
     if (stats) {

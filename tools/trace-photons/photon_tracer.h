@@ -7,6 +7,7 @@
 
 #include "libcommon/color.h"
 #include "libcommon/math.h"
+#include "formats/photon_map.h"
 #include "libcommon/scene.h"
 
 namespace iris {
@@ -21,14 +22,6 @@ struct PhotonOptions {
     bool quiet = false;
 };
 
-// One stored photon.
-struct Photon {
-    Vec3 position;   // world space
-    Vec3 direction;  // unit, from the hit point back towards where the photon came from (omega_i)
-    Vec3 normal;     // geometric normal of the surface hit (unit; the shape's own orientation)
-    RGB power;       // W: Phi_light / (N p_select) times the path's throughput
-};
-
 struct PhotonStats {
     uint64_t paths = 0, photons = 0, nonfinite = 0;
     double seconds = 0;
@@ -36,6 +29,6 @@ struct PhotonStats {
 };
 
 // Traces opts.paths photon paths. Deterministic for a seed, whatever the thread count.
-std::vector<Photon> trace_photons(const Scene& scene, const PhotonOptions& opts, PhotonStats* stats);
+PhotonMap trace_photons(const Scene& scene, const PhotonOptions& opts, PhotonStats* stats);
 
 }  // namespace iris

@@ -1,0 +1,108 @@
+#include "tools/fill-caches/cache_filler.h"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <thread>
+
+#include "libcommon/point_tree.h"
+#include "libcommon/progress.h"
+#include "libcommon/spheremap.h"
+
+namespace iris {
+
+CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, double diagonal, const FillOptions& o,
+                       FillStats* stats) {
+    if (o.k == 0) throw std::runtime_error("--k must be positive");
+    if (o.resolution < 1 || o.resolution > 256) throw std::runtime_error("--resolution must be in [1, 256]");
+    if (!(o.max_radius > 0)) throw std::runtime_error("--max-radius must be positive");
+    if (!(o.filter_sigma >= 0)) throw std::runtime_error("--filter-sigma must be >= 0");
+    if (!(o.floor > 0 && o.floor <= 1)) throw std::runtime_error("--floor must be in (0, 1]");
+    auto t0 = std::chrono::steady_clock::now();
+    int threads = o.threads > 0 ? o.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+    tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));
+
+    const int R = o.resolution;
+    const size_t N = size_t(R) * R;
+    CacheAtlas atlas;
+    atlas.resolution = R;
+    atlas.position = caches.position;
+    atlas.normal = caches.normal;
+    atlas.pdf.assign(caches.size() * N, 0.0f);
+    atlas.cdf.assign(caches.size() * N, 0.0f);
+    atlas.photon_count.assign(caches.size(), 0);
+    atlas.radius.assign(caches.size(), 0.0f);
+    atlas.usable.assign(caches.size(), 0);
+    atlas.k = int(o.k);
+    atlas.filter = o.filter_sigma > 0 ? "gaussian" : "none";
+    atlas.filter_sigma = o.filter_sigma;
+    atlas.floor = o.floor;
+
+    const PointTree tree(photons.position);
+    const uint32_t k = uint32_t(std::min<size_t>(o.k, photons.size()));
+    const float max_d2 = float(o.max_radius * diagonal) * float(o.max_radius * diagonal);
+    // Texel angular size sqrt(4 pi / N) converts the filter width from texels to radians.
+    const SphereFilter filter(R, float(o.filter_sigma * std::sqrt(4.0 * M_PI / double(N))));
+
+    struct Scratch {
+        std::vector<uint32_t> idx;
+        std::vector<float> d2;
+        SphereMap map;
+    };
+    tbb::enumerable_thread_specific<Scratch> scratch([&] { return Scratch{std::vector<uint32_t>(k), std::vector<float>(k), SphereMap(R)}; });
+    Progress progress("fill-caches", caches.size(), o.quiet);
+    std::atomic<uint64_t> photons_used{0};
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, caches.size(), 64), [&](const tbb::blocked_range<size_t>& range) {
+        Scratch& s = scratch.local();
+        for (size_t c = range.begin(); c != range.end(); ++c) {
+            const Vec3 n = caches.normal[c];
+            const Frame frame(n);
+            s.map.clear();
+            uint32_t found = k ? tree.nearest(caches.position[c], k, max_d2, s.idx.data(), s.d2.data()) : 0;
+            uint32_t used = 0;
+            float r2 = 0;
+            for (uint32_t j = 0; j < found; ++j) {
+                uint32_t p = s.idx[j];
+                // Same surface, same side (DESIGN 4.6): photon normals face the side they arrived from.
+                if (dot(photons.normal[p], n) < o.normal_cos) continue;
+                float power = luminance(photons.power[p]);
+                if (!(power > 0)) continue;
+                s.map.splat(frame.to_local(photons.direction[p]), power);
+                ++used;
+                r2 = std::max(r2, s.d2[j]);
+            }
+            atlas.photon_count[c] = used;
+            atlas.radius[c] = std::sqrt(r2);
+            atlas.usable[c] = used >= o.min_photons ? 1 : 0;
+            photons_used += used;
+            if (atlas.usable[c] && o.filter_sigma > 0) s.map.filter(filter);
+            if (!atlas.usable[c]) s.map.clear();  // an unusable cache keeps a valid (uniform) table
+            s.map.normalise_floor(float(o.floor));
+            SphereDistribution::build(s.map.data(), R, &atlas.cdf[c * N], &atlas.pdf[c * N]);
+        }
+        progress.advance(range.size());
+    });
+    uint32_t usable = 0;
+    double sum_r = 0;
+    for (size_t c = 0; c < caches.size(); ++c)
+        if (atlas.usable[c]) {
+            ++usable;
+            sum_r += atlas.radius[c];
+        }
+    if (stats) {
+        stats->usable = usable;
+        stats->unusable = uint32_t(caches.size()) - usable;
+        stats->mean_photons = caches.size() ? double(photons_used) / caches.size() : 0;
+        stats->mean_radius = usable ? sum_r / usable : 0;
+        stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    progress.finish(std::to_string(usable) + " of " + std::to_string(caches.size()) + " caches usable");
+    return atlas;
+}
+
+}  // namespace iris
