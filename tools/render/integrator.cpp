@@ -68,6 +68,10 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         Vec3 wi = hit.frame.to_local(wi_world);
         if (wi.z == 0) break;
         const bool delta_only = bsdf_is_delta(bsdf);
+        // Light sampling and its MIS density are evaluated from a point moved off the surface to the
+        // side the path is on: on the surface of a sphere light itself, "inside" (sees all of it) and
+        // "outside" (sees none of it) would otherwise be decided by rounding.
+        const Vec3 ref = offset_ray_origin(hit.p, hit.ng, wi_world);
 
         // The cache serving this vertex, and the probability alpha of BSDF sampling in the one-sample
         // mixture p_mix = alpha p_bsdf + (1 - alpha) p_cache (DESIGN 4.3). alpha = 1: unguided.
@@ -88,7 +92,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             LightSample ls;
             float u_sel = rng.next_float();
             Vec2 u_light{rng.next_float(), rng.next_float()};
-            if (sample_light(scene, hit.p, u_sel, u_light, &ls) && ls.pdf > 0 && !is_black(ls.radiance)) {
+            if (sample_light(scene, ref, u_sel, u_light, &ls) && ls.pdf > 0 && !is_black(ls.radiance)) {
                 Vec3 wo = hit.frame.to_local(ls.wi);
                 if (consistent_side(ls.wi, hit.ng, wo.z)) {
                     RGB f = bsdf_eval(bsdf, wi, wo);
@@ -161,7 +165,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             }
         }
         if (is_black(beta)) break;
-        prev_p = hit.p;
+        prev_p = ref;
         ray = spawn_ray(hit, wo_world);
 
         // Russian roulette from rr_depth on, with Mitsuba's survival probability.
