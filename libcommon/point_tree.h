@@ -35,6 +35,16 @@ public:
         return uint32_t(result.size());
     }
 
+    // All points with squared distance below r2, unsorted, into `out` (cleared first). For large k this
+    // beats nearest(): nanoflann's k-nearest result set inserts in O(k), so k = 2000 costs O(k^2).
+    void within(Vec3 q, float r2, std::vector<std::pair<uint32_t, float>>& out) const {
+        out.clear();
+        if (size() == 0) return;
+        nanoflann::RadiusResultSet<float, uint32_t> result(r2, out);
+        const float query[3] = {q.x, q.y, q.z};
+        index_.findNeighbors(result, query, nanoflann::SearchParams(32, 0.0f, false));
+    }
+
 private:
     struct Cloud {
         const std::vector<Vec3>* points;

@@ -50,11 +50,35 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
     const SphereFilter filter(R, float(o.filter_sigma * std::sqrt(4.0 * M_PI / double(N))));
 
     struct Scratch {
-        std::vector<uint32_t> idx;
-        std::vector<float> d2;
+        std::vector<std::pair<uint32_t, float>> found;
+        float r2 = 0;  // the last search radius^2 that held k photons: caches nearby need similar ones
         SphereMap map;
     };
-    tbb::enumerable_thread_specific<Scratch> scratch([&] { return Scratch{std::vector<uint32_t>(k), std::vector<float>(k), SphereMap(R)}; });
+    tbb::enumerable_thread_specific<Scratch> scratch([&] { return Scratch{{}, max_d2 / 64, SphereMap(R)}; });
+    // The k nearest photons within the radius limit: a radius search, grown until it holds k photons
+    // (or reaches the limit) and shrunk when it holds far more, then a partial sort. Each search is
+    // linear in what it finds, unlike a k-nearest search whose result insertion is O(k) per photon.
+    auto gather = [&](Scratch& s, Vec3 q) {
+        float r2 = std::min(s.r2, max_d2);
+        for (int it = 0; it < 40; ++it) {
+            tree.within(q, r2, s.found);
+            if (s.found.size() < k && r2 < max_d2) {
+                r2 = std::min(max_d2, r2 * 2.5f);
+                continue;
+            }
+            if (s.found.size() > 8 * size_t(k) && it < 39) {
+                r2 *= 0.3f;
+                continue;
+            }
+            break;
+        }
+        if (s.found.size() >= k) s.r2 = r2;
+        if (s.found.size() > k) {
+            std::nth_element(s.found.begin(), s.found.begin() + (k - 1), s.found.end(),
+                             [](const auto& a, const auto& b) { return a.second < b.second; });
+            s.found.resize(k);
+        }
+    };
     Progress progress("fill-caches", caches.size(), o.quiet);
     std::atomic<uint64_t> photons_used{0};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, caches.size(), 64), [&](const tbb::blocked_range<size_t>& range) {
@@ -63,18 +87,17 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
             const Vec3 n = caches.normal[c];
             const Frame frame(n);
             s.map.clear();
-            uint32_t found = k ? tree.nearest(caches.position[c], k, max_d2, s.idx.data(), s.d2.data()) : 0;
+            gather(s, caches.position[c]);
             uint32_t used = 0;
             float r2 = 0;
-            for (uint32_t j = 0; j < found; ++j) {
-                uint32_t p = s.idx[j];
+            for (const auto& [p, d2] : s.found) {
                 // Same surface, same side (DESIGN 4.6): photon normals face the side they arrived from.
                 if (dot(photons.normal[p], n) < o.normal_cos) continue;
                 float power = luminance(photons.power[p]);
                 if (!(power > 0)) continue;
                 s.map.splat(frame.to_local(photons.direction[p]), power);
                 ++used;
-                r2 = std::max(r2, s.d2[j]);
+                r2 = std::max(r2, d2);
             }
             atlas.photon_count[c] = used;
             atlas.radius[c] = std::sqrt(r2);

@@ -49,6 +49,7 @@ public:
     size_t usable_count() const { return usable_positions_.size(); }
 
 private:
+    void prefetch(int c) const;
     Vec3 sample_local(int c, Vec2 u, float* pdf) const;
     CacheAtlas atlas_;
     std::vector<Frame> frames_;
