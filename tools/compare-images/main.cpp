@@ -44,7 +44,9 @@ int main(int argc, char** argv) {
     CLI::App app{"compare-images: relMSE, trimmed relMSE, MAPE and channel means of TEST against REFERENCE"};
     app.set_version_flag("--version", std::string("iris compare-images ") + IRIS_VERSION);
     app.add_option("test", test_path, "Image to judge (.exr, or .png = 8-bit sRGB)")->required();
-    app.add_option("reference", ref_path, "Reference image (.exr, or .png = 8-bit sRGB)")->required();
+    app.add_option("reference", ref_path, "Reference image (.exr, or .png = 8-bit sRGB)");
+    bool metadata = false;
+    app.add_flag("--metadata", metadata, "Only print TEST's metadata (EXR string attributes), one 'key value' per line");
     app.add_option("--mask", masks, "Leave out the pixel rectangle x0,y0,x1,y1 (half-open); repeatable");
     app.add_flag("--mitsuba-banner", mitsuba_banner, "Leave out Mitsuba's banner (rows >= H-12, columns 650-765)");
     app.add_option("-o,--error-image", error_image, "Write a false-colour relative-error PNG here");
@@ -59,6 +61,12 @@ int main(int argc, char** argv) {
         return app.exit(e);
     }
     try {
+        if (metadata) {
+            iris::Image img = iris::read_exr(test_path);
+            for (const auto& [k, v] : img.metadata) std::printf("%s %s\n", k.c_str(), v.c_str());
+            return 0;
+        }
+        if (ref_path.empty()) throw std::runtime_error("a reference image is required");
         int wt, ht, wr, hr;
         bool t8, r8;
         std::vector<float> test = load_rgb(test_path, &wt, &ht, &t8);

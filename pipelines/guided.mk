@@ -1,0 +1,128 @@
+# The guided pipeline: trace-photons -> place-caches -> fill-caches -> render --atlas, with the unguided
+# render at the same total time beside it and a comparison against a reference.
+#
+#   make -f pipelines/guided.mk SCENE=scenes/cbox/glass_spheres.xml OUT=out/glass_spheres [targets]
+#
+# Targets: photons caches atlas guided (default) unguided reference compare clean
+# Every parameter below can be overridden on the command line (make ... K=500 TIME=120).
+# Each stage's full command line is kept in $(OUT)/<stage>.params; a stage re-runs when its command
+# (i.e. a parameter) or an input changed, and so do the stages after it - nothing else re-runs.
+#
+# Equal time: the guided render gets TIME seconds; the unguided one gets TIME plus the measured
+# preprocessing time (trace-photons + place-caches + fill-caches, in $(OUT)/*.seconds), so both
+# images cost the same total wall time.
+
+SHELL := /bin/bash
+.DELETE_ON_ERROR:
+
+BIN ?= build/bin
+SCENE ?= scenes/cbox/glass_spheres.xml
+NAME ?= $(basename $(notdir $(SCENE)))
+OUT ?= out/$(NAME)
+SEED ?= 1
+THREADS ?= 0
+QUIET ?= -q
+
+# trace-photons
+PATHS ?= 250000
+PHOTON_DEPTH ?= 30
+# place-caches
+COUNT ?= 20000
+STRIDE ?= 8
+# fill-caches
+K ?= 2000
+RES ?= 16
+SIGMA ?= 0.75
+FLOOR ?= 0.1
+MAX_RADIUS ?= 0.05
+# render
+TIME ?= 30
+SPP ?= 0
+MODE ?= nee+bsdf+cache
+BSDF_FRACTION ?= 0.25
+RENDER_FLAGS ?=
+# reference (unguided, long), kept outside the output folder so several runs share it
+REF_SPP ?= 1024
+REF_DIR ?= .cache/references
+REF := $(REF_DIR)/$(NAME)-$(REF_SPP)spp.exr
+
+COMMON := --seed $(SEED) -t $(THREADS) $(QUIET)
+BUDGET := $(if $(filter 0,$(SPP)),--time $(TIME),--spp $(SPP))
+
+CMD_photons = $(BIN)/trace-photons $(SCENE) -o $(OUT)/photons.h5 --paths $(PATHS) --max-depth $(PHOTON_DEPTH) $(COMMON)
+CMD_caches = $(BIN)/place-caches $(SCENE) --photons $(OUT)/photons.h5 -o $(OUT)/caches.h5 --count $(COUNT) \
+  --camera-stride $(STRIDE) $(COMMON)
+CMD_atlas = $(BIN)/fill-caches $(OUT)/caches.h5 --photons $(OUT)/photons.h5 -o $(OUT)/atlas.h5 --k $(K) \
+  --resolution $(RES) --filter-sigma $(SIGMA) --floor $(FLOOR) --max-radius $(MAX_RADIUS) $(COMMON)
+CMD_guided = $(BIN)/render $(SCENE) --atlas $(OUT)/atlas.h5 --mode $(MODE) --bsdf-fraction $(BSDF_FRACTION) \
+  -o $(OUT)/guided.exr $(BUDGET) --variance $(RENDER_FLAGS) $(COMMON)
+# The unguided budget is completed at run time with the measured preprocessing seconds.
+CMD_unguided = $(BIN)/render $(SCENE) -o $(OUT)/unguided.exr --mode nee+bsdf --variance $(RENDER_FLAGS) $(COMMON)
+CMD_reference = $(BIN)/render $(SCENE) -o $(REF) --mode nee+bsdf --spp $(REF_SPP) --seed 1000003 -t $(THREADS) $(QUIET)
+
+# Runs a command and records its wall time (seconds) in $(1).
+timed = start=$$(date +%s.%N); $(2); end=$$(date +%s.%N); awk -v a=$$start -v b=$$end 'BEGIN{printf "%.3f\n", b-a}' > $(1)
+
+.PHONY: all photons caches atlas guided unguided reference compare clean FORCE
+all: guided
+photons: $(OUT)/photons.h5
+caches: $(OUT)/caches.h5
+atlas: $(OUT)/atlas.h5
+guided: $(OUT)/guided.exr
+unguided: $(OUT)/unguided.exr
+reference: $(REF)
+compare: $(OUT)/comparison.txt
+
+$(OUT) $(REF_DIR):
+	@mkdir -p $@
+
+# Parameter stamps: rewritten (and so newer than the stage's output) only when the command changed.
+$(OUT)/%.params: FORCE | $(OUT)
+	@printf '%s\n' '$(strip $(CMD_$*))' | cmp -s - $@ || printf '%s\n' '$(strip $(CMD_$*))' > $@
+
+$(OUT)/photons.h5: $(OUT)/photons.params $(SCENE)
+	@echo "[1/4] trace-photons: $(PATHS) paths"
+	@$(call timed,$(OUT)/photons.seconds,$(CMD_photons))
+
+$(OUT)/caches.h5: $(OUT)/caches.params $(OUT)/photons.h5
+	@echo "[2/4] place-caches: $(COUNT) caches"
+	@$(call timed,$(OUT)/caches.seconds,$(CMD_caches))
+
+$(OUT)/atlas.h5: $(OUT)/atlas.params $(OUT)/caches.h5 $(OUT)/photons.h5
+	@echo "[3/4] fill-caches: k = $(K), $(RES)x$(RES) maps"
+	@$(call timed,$(OUT)/atlas.seconds,$(CMD_atlas))
+
+$(OUT)/guided.exr: $(OUT)/guided.params $(OUT)/atlas.h5 $(SCENE)
+	@echo "[4/4] render (guided, $(MODE)): $(BUDGET)"
+	@$(CMD_guided)
+
+# Depends on the atlas too: when preprocessing re-ran, its time changed and so did this budget.
+$(OUT)/unguided.exr: $(OUT)/unguided.params $(OUT)/atlas.h5 $(SCENE)
+	@prep=$$(cat $(OUT)/photons.seconds $(OUT)/caches.seconds $(OUT)/atlas.seconds | awk '{s+=$$1} END{printf "%.3f", s}'); \
+	if [ "$(SPP)" = 0 ]; then budget="--time $$(awk -v t=$(TIME) -v p=$$prep 'BEGIN{printf "%.3f", t+p}')"; else budget="--spp $(SPP)"; fi; \
+	echo "render (unguided, nee+bsdf): $$budget (TIME + $$prep s of preprocessing)"; \
+	$(CMD_unguided) $$budget
+
+$(REF): $(SCENE) | $(REF_DIR)
+	@echo "reference: unguided, $(REF_SPP) spp (once per scene; kept in $(REF_DIR))"
+	@$(call timed,$(REF).seconds,$(CMD_reference))
+	@{ echo "scene $(SCENE)"; echo "seconds $$(cat $(REF).seconds)"; \
+	   $(BIN)/compare-images $(REF) --metadata | grep -E '^iris:(scene_fingerprint|spp|seed|version|command_line) '; \
+	 } > $(REF).manifest
+
+$(OUT)/comparison.txt: $(OUT)/guided.exr $(OUT)/unguided.exr $(REF)
+	@{ echo "scene: $(SCENE)"; \
+	   echo "reference: $(REF) ($(REF_SPP) spp, unguided)"; \
+	   echo "preprocessing: $$(cat $(OUT)/photons.seconds) s photons + $$(cat $(OUT)/caches.seconds) s caches + $$(cat $(OUT)/atlas.seconds) s atlas"; \
+	   echo; echo "== guided ($(MODE)), $(TIME) s render + preprocessing =="; \
+	   $(BIN)/compare-images $(OUT)/guided.exr $(REF) -o $(OUT)/guided.error.png --error-scale 0.05; \
+	   echo; echo "== unguided (nee+bsdf), same total time =="; \
+	   $(BIN)/compare-images $(OUT)/unguided.exr $(REF) -o $(OUT)/unguided.error.png --error-scale 0.05; \
+	   g=$$($(BIN)/compare-images $(OUT)/guided.exr $(REF) --json | sed -n 's/.*"relmse": \([0-9.e+-]*\),.*/\1/p'); \
+	   u=$$($(BIN)/compare-images $(OUT)/unguided.exr $(REF) --json | sed -n 's/.*"relmse": \([0-9.e+-]*\),.*/\1/p'); \
+	   echo; awk -v g=$$g -v u=$$u 'BEGIN{printf "relMSE unguided / guided at equal total time: %.3f (> 1: guiding wins)\n", u/g}'; \
+	} > $@
+	@cat $@
+
+clean:
+	rm -rf $(OUT)
