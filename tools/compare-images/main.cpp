@@ -46,6 +46,8 @@ int main(int argc, char** argv) {
     app.add_option("test", test_path, "Image to judge (.exr, or .png = 8-bit sRGB)")->required();
     app.add_option("reference", ref_path, "Reference image (.exr, or .png = 8-bit sRGB)");
     bool metadata = false;
+    std::string srgb_png;
+    app.add_option("--srgb-png", srgb_png, "Also write TEST as an 8-bit sRGB PNG (exposure 0, clipped)");
     app.add_flag("--metadata", metadata, "Only print TEST's metadata (EXR string attributes), one 'key value' per line");
     app.add_option("--mask", masks, "Leave out the pixel rectangle x0,y0,x1,y1 (half-open); repeatable");
     app.add_flag("--mitsuba-banner", mitsuba_banner, "Leave out Mitsuba's banner (rows >= H-12, columns 650-765)");
@@ -65,6 +67,15 @@ int main(int argc, char** argv) {
             iris::Image img = iris::read_exr(test_path);
             for (const auto& [k, v] : img.metadata) std::printf("%s %s\n", k.c_str(), v.c_str());
             return 0;
+        }
+        if (!srgb_png.empty()) {
+            int w, h;
+            bool is8;
+            std::vector<float> rgb = load_rgb(test_path, &w, &h, &is8);
+            if (!is8)
+                for (float& v : rgb) v = iris::to_srgb8(v) / 255.0f;
+            iris::write_png(srgb_png, w, h, rgb);
+            if (ref_path.empty()) return 0;
         }
         if (ref_path.empty()) throw std::runtime_error("a reference image is required");
         int wt, ht, wr, hr;

@@ -32,12 +32,17 @@ int main(int argc, char** argv) {
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     try {
         app.parse(argc, argv);
+    } catch (const CLI::Success& e) {
+        return app.exit(e);  // --help, --version
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
+        std::fprintf(stderr, "fill-caches: error: %s (see --help)\n", e.what());
+        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
     }
     try {
         if (opt.k == 0) throw std::runtime_error("--k must be positive");
         if (opt.resolution < 1 || opt.resolution > 256) throw std::runtime_error("--resolution must be in [1, 256]");
+        if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
         iris::check_output_path(output);
         iris::CachePointsFile cf = iris::read_cache_points(caches_path);
         // The photons must come from the same scene as the caches.

@@ -29,8 +29,12 @@ int main(int argc, char** argv) {
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     try {
         app.parse(argc, argv);
+    } catch (const CLI::Success& e) {
+        return app.exit(e);  // --help, --version
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
+        std::fprintf(stderr, "place-caches: error: %s (see --help)\n", e.what());
+        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
     }
     try {
         if (!resolution.empty()) {
@@ -41,6 +45,7 @@ int main(int argc, char** argv) {
         }
         if (opt.count == 0) throw std::runtime_error("--count must be positive");
         if (opt.camera_stride < 0) throw std::runtime_error("--camera-stride must be >= 0");
+        if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
         iris::check_output_path(output);
         iris::SceneLoadOptions lo;
         for (const std::string& d : defines) {

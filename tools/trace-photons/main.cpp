@@ -18,7 +18,10 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", std::string("iris trace-photons ") + IRIS_VERSION);
     app.add_option("scene", scene_path, "Scene file (Mitsuba 0.5 XML)")->required();
     app.add_option("-o,--output", output, "Photon map to write (.h5)")->required();
-    app.add_option("--paths", opt.paths, "Photon paths to emit");
+    // Read as a signed number: CLI11 converts "-5" into a uint64_t by wrapping it around (to 2^64 - 5),
+    // which then overflowed the chunk count and produced an empty photon map with exit status 0.
+    long long paths = (long long)opt.paths;
+    app.add_option("--paths", paths, "Photon paths to emit");
     app.add_option("--max-depth", opt.max_depth, "Longest photon path in segments, -1 = unlimited");
     app.add_option("--rr-depth", opt.rr_depth, "Russian roulette from this many bounces on");
     app.add_option("--cutoff", opt.cutoff, "Stop a path below this fraction of its emitted power");
@@ -28,10 +31,17 @@ int main(int argc, char** argv) {
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     try {
         app.parse(argc, argv);
+    } catch (const CLI::Success& e) {
+        return app.exit(e);  // --help, --version
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
+        std::fprintf(stderr, "trace-photons: error: %s (see --help)\n", e.what());
+        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
     }
     try {
+        if (paths <= 0) throw std::runtime_error("--paths must be positive, got " + std::to_string(paths));
+        opt.paths = uint64_t(paths);
+        if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
         iris::check_output_path(output);
         iris::SceneLoadOptions lo;
         for (const std::string& d : defines) {
