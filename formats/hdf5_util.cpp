@@ -771,6 +771,11 @@ std::vector<uint8_t> Reader::u8s(const char* name) const {
     return impl_->read<uint8_t>(name, H5T_NATIVE_UINT8, H5T_INTEGER, 0, nullptr);
 }
 
+bool Reader::has_dataset(const char* name) const {
+    QuietHdf5 quiet;
+    return H5Lexists(impl_->file.get(), name, H5P_DEFAULT) > 0;
+}
+
 std::vector<uint32_t> Reader::u32s(const char* name) const {
     return impl_->read<uint32_t>(name, H5T_NATIVE_UINT32, H5T_INTEGER, 0, nullptr);
 }

@@ -148,6 +148,8 @@ public:
     // (rows, cols) float array, row-major; cols = 0 expects a 1-D array. *rows receives the row count.
     std::vector<float> floats(const char* name, size_t cols, size_t* rows = nullptr) const;
     std::vector<uint8_t> u8s(const char* name) const;
+    // Whether an (optional) dataset exists.
+    bool has_dataset(const char* name) const;
     std::vector<uint32_t> u32s(const char* name) const;
 
     // Throws StageFileError("PATH: message").

@@ -10,6 +10,8 @@ std::string validate_photon_map(const PhotonMap& m) {
     for (auto [name, rows] : {std::pair{"direction", m.direction.size()}, std::pair{"power", m.power.size()},
                               std::pair{"normal", m.normal.size()}})
         if (std::string e = h5::check_rows(name, rows, "position", n); !e.empty()) return e;
+    if (!m.bounces.empty())
+        if (std::string e = h5::check_rows("bounces", m.bounces.size(), "position", n); !e.empty()) return e;
     if (std::string e = h5::check_finite("position", m.position); !e.empty()) return e;
     if (std::string e = h5::check_unit("direction", m.direction); !e.empty()) return e;
     if (std::string e = h5::check_unit("normal", m.normal); !e.empty()) return e;
@@ -41,6 +43,9 @@ void write_photon_map(const std::string& path, const PhotonMap& map, const std::
               "RGB flux: Phi_light / (emitted_paths * p_select(light)) times the path throughput");
     w.dataset("normal", map.normal, "unit vector",
               "geometric normal at the hit, facing the side the photon came from (dot(direction, normal) >= 0)");
+    if (!map.bounces.empty())
+        w.dataset("bounces", map.bounces, "count",
+                  "surfaces the photon left before this hit (0 = direct light from an emitter), saturating at 255");
     w.commit();
 }
 
@@ -58,6 +63,7 @@ PhotonMapFile read_photon_map(const std::string& path, const std::string& expect
     m.direction = r.vec3s("direction");
     m.power = r.rgbs("power");
     m.normal = r.vec3s("normal");
+    if (r.has_dataset("bounces")) m.bounces = r.u8s("bounces");
     if (count != m.size())
         r.fail("attribute 'photon_count' is " + std::to_string(count) + " but dataset 'position' has " +
                std::to_string(m.size()) + " rows");

@@ -24,6 +24,9 @@ struct PhotonMap {
     // Unit geometric normal at the hit, facing the side the photon arrived from:
     // dot(direction, normal) >= 0. (A surface's own orientation says nothing about which side is lit.)
     std::vector<Vec3> normal;
+    // Surfaces the photon left before this hit (0 = it came straight from a light, i.e. direct light;
+    // saturates at 255). Optional in files (then empty): lets fill-caches leave direct light to NEE.
+    std::vector<uint8_t> bounces;
     uint64_t emitted_paths = 0;  // N, the number of photon paths traced (> 0 whenever photons exist)
     int max_depth = -1;          // longest photon path, in segments (light -> first hit = 1); -1 = unlimited
 

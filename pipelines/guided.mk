@@ -53,7 +53,8 @@ CMD_photons = $(BIN)/trace-photons $(SCENE) -o $(OUT)/photons.h5 --paths $(PATHS
 CMD_caches = $(BIN)/place-caches $(SCENE) --photons $(OUT)/photons.h5 -o $(OUT)/caches.h5 --count $(COUNT) \
   --camera-stride $(STRIDE) $(COMMON)
 CMD_atlas = $(BIN)/fill-caches $(OUT)/caches.h5 --photons $(OUT)/photons.h5 -o $(OUT)/atlas.h5 --k $(K) \
-  --resolution $(RES) --filter-sigma $(SIGMA) --floor $(FLOOR) --max-radius $(MAX_RADIUS) $(COMMON)
+  --resolution $(RES) --filter-sigma $(SIGMA) --floor $(FLOOR) --max-radius $(MAX_RADIUS) \
+  $(if $(filter bsdf+cache,$(MODE)),--direct) $(COMMON)
 CMD_guided = $(BIN)/render $(SCENE) --atlas $(OUT)/atlas.h5 --mode $(MODE) --bsdf-fraction $(BSDF_FRACTION) \
   -o $(OUT)/guided.exr $(BUDGET) --variance $(RENDER_FLAGS) $(COMMON)
 # The unguided budget is completed at run time with the measured preprocessing seconds.

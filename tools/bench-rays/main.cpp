@@ -28,8 +28,12 @@ int main(int argc, char** argv) {
     app.add_option("-t,--threads", threads, "Worker threads (default: all cores)");
     try {
         app.parse(argc, argv);
+    } catch (const CLI::Success& e) {
+        return app.exit(e);  // --help, --version
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
+        std::fprintf(stderr, "%s: error: %s (see --help)\n", "bench-rays", e.what());
+        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
     }
     try {
         iris::SceneLoadOptions lo;

@@ -59,8 +59,12 @@ int main(int argc, char** argv) {
     app.add_flag("--json", json, "Print the metrics as one JSON object");
     try {
         app.parse(argc, argv);
+    } catch (const CLI::Success& e) {
+        return app.exit(e);  // --help, --version
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
+        std::fprintf(stderr, "%s: error: %s (see --help)\n", "compare-images", e.what());
+        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
     }
     try {
         if (metadata) {

@@ -43,6 +43,7 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
     atlas.filter_sigma = o.filter_sigma;
     atlas.floor = o.floor;
 
+    const bool skip_direct = !o.direct && !photons.bounces.empty();
     const PointTree tree(photons.position);
     const uint32_t k = uint32_t(std::min<size_t>(o.k, photons.size()));
     const float max_d2 = float(o.max_radius * diagonal) * float(o.max_radius * diagonal);
@@ -93,6 +94,7 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
             for (const auto& [p, d2] : s.found) {
                 // Same surface, same side (DESIGN 4.6): photon normals face the side they arrived from.
                 if (dot(photons.normal[p], n) < o.normal_cos) continue;
+                if (skip_direct && photons.bounces[p] == 0) continue;
                 float power = luminance(photons.power[p]);
                 if (!(power > 0)) continue;
                 s.map.splat(frame.to_local(photons.direction[p]), power);

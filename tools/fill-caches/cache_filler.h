@@ -18,6 +18,10 @@ struct FillOptions {
     uint32_t min_photons = 32;    // fewer usable photons than this: the cache is marked unusable
     double filter_sigma = 0.75;   // Gaussian smoothing, standard deviation in texels (0 = no filter)
     double floor = 0.1;           // mixture weight of the uniform density (DESIGN 4.4), in [0, 1]
+    // Leave out photons that came straight from a light: where the renderer does next-event estimation,
+    // direct light is already sampled well, and the caches should spend their samples on the indirect
+    // light (caustics above all). Needs the photon map's `bounces` dataset.
+    bool direct = false;
     double normal_cos = 0.8;      // photons count only where their surface normal is this close to the cache's
     int threads = 0;
     bool quiet = false;

@@ -26,6 +26,8 @@ int main(int argc, char** argv) {
     app.add_option("--min-photons", opt.min_photons, "Fewer photons than this: the cache is not used");
     app.add_option("--filter-sigma", opt.filter_sigma, "Gaussian filter width in texels (0 = none)");
     app.add_option("--floor", opt.floor, "Weight of the uniform density mixed into every map (0..1]");
+    app.add_flag("--direct", opt.direct,
+                 "Also count photons straight from the lights (for renders without NEE, e.g. --mode bsdf+cache)");
     app.add_option("-t,--threads", opt.threads, "Worker threads (default: all cores)");
     uint64_t seed = 0;
     app.add_option("--seed", seed, "Accepted for uniformity with the other tools (filling is not random)");
@@ -73,6 +75,7 @@ int main(int argc, char** argv) {
                            {"min_photons", double(opt.min_photons)},
                            {"filter_sigma", opt.filter_sigma},
                            {"floor", opt.floor},
+                           {"direct", opt.direct ? 1.0 : 0.0},
                            {"usable", double(stats.usable)},
                            {"mean_photons", stats.mean_photons},
                            {"seconds", stats.seconds}};

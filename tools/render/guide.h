@@ -49,6 +49,24 @@ public:
     size_t usable_count() const { return usable_positions_.size(); }
 
 private:
+    // A hash grid over the usable caches: the cell of a vertex lists the caches inside it, contiguous in
+    // memory with what the test needs, so most lookups cost one hash probe and a short scan instead of
+    // a k-d tree descent. Vertices whose cell has no serving cache fall back to the tree.
+    struct GridEntry {
+        Vec3 position;
+        Vec3 normal;
+        float radius2;   // squared distance the cache may serve
+        uint32_t cache;  // index into the atlas
+    };
+    void build_grid();
+    int lookup_grid(Vec3 p, Vec3 n_side) const;
+    int lookup_tree(Vec3 p, Vec3 n_side) const;
+    uint64_t cell_key(Vec3 p) const;
+    float cell_size_ = 0, inv_cell_ = 0;
+    Vec3 grid_origin_;
+    std::vector<GridEntry> entries_;              // grouped by cell
+    std::vector<uint64_t> slot_key_;              // open addressing, capacity a power of two; ~0 = empty
+    std::vector<uint32_t> slot_begin_, slot_end_; // entries_ range of each slot's cell
     void prefetch(int c) const;
     Vec3 sample_local(int c, Vec2 u, float* pdf) const;
     CacheAtlas atlas_;

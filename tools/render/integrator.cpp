@@ -80,7 +80,12 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         if (guide && !delta_only) {
             Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
             cache = guide->lookup(hit.p, n_side);
-            if (cache >= 0) alpha = ps.mode == GuideMode::NeeCache ? 0.0f : guide->bsdf_fraction(cache);
+            // nee+cache continues from the cache alone, except where the BSDF has a Dirac lobe beside
+            // its smooth part (smooth plastic): only BSDF sampling can produce that lobe, so it keeps
+            // its share there, or the estimator would miss the mirror reflection (DESIGN 4.4).
+            if (cache >= 0)
+                alpha = (ps.mode == GuideMode::NeeCache && bsdf.type != BsdfType::Plastic) ? 0.0f
+                                                                                          : guide->bsdf_fraction(cache);
         }
         auto mix_pdf = [&](Vec3 wo_local, Vec3 wo_world, float p_bsdf) {
             return cache < 0 ? p_bsdf : alpha * p_bsdf + (1 - alpha) * guide->pdf(cache, wo_world);

@@ -40,8 +40,12 @@ int main(int argc, char** argv) {
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     try {
         app.parse(argc, argv);
+    } catch (const CLI::Success& e) {
+        return app.exit(e);  // --help, --version
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
+        std::fprintf(stderr, "%s: error: %s (see --help)\n", "render", e.what());
+        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
     }
     try {
         if (opt.spp < 0) throw std::runtime_error("--spp must be positive, got " + std::to_string(opt.spp));

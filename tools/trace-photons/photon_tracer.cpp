@@ -20,6 +20,7 @@ namespace {
 struct Photon {
     Vec3 position, direction, normal;
     RGB power;
+    uint8_t bounces;
 };
 
 constexpr uint64_t kChunk = 1024;  // paths per work item; photons of a chunk are kept in path order
@@ -48,7 +49,8 @@ void trace_one(const Scene& scene, const PhotonOptions& o, uint64_t index, std::
                 return;
             }
             // The normal is stored facing the side the photon arrived from (the photon map contract).
-            out.push_back({hit.p, wi_world, dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng, beta});
+            out.push_back({hit.p, wi_world, dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng, beta,
+                           uint8_t(std::min(depth - 1, 255))});
         }
         if (o.max_depth >= 0 && depth == o.max_depth) return;
         Vec3 wi = hit.frame.to_local(wi_world);
@@ -111,12 +113,14 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
     photons.direction.reserve(total);
     photons.normal.reserve(total);
     photons.power.reserve(total);
+    photons.bounces.reserve(total);
     for (auto& part : parts) {
         for (const Photon& ph : part) {
             photons.position.push_back(ph.position);
             photons.direction.push_back(ph.direction);
             photons.normal.push_back(ph.normal);
             photons.power.push_back(ph.power);
+            photons.bounces.push_back(ph.bounces);
         }
         std::vector<Photon>().swap(part);
     }
