@@ -5,8 +5,10 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <map>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace iris {
 
@@ -28,6 +30,17 @@ inline void check_output_path(const std::string& path) {
     if (!fs::is_directory(dir)) throw std::runtime_error(path + ": output directory does not exist");
     if (access(dir.c_str(), W_OK) != 0) throw std::runtime_error(path + ": output directory is not writable");
     if (fs::is_directory(path)) throw std::runtime_error(path + ": output path is a directory");
+}
+
+// "-D name=value" options into a parameter map (for $name in scene files).
+inline std::map<std::string, std::string> parse_defines(const std::vector<std::string>& defines) {
+    std::map<std::string, std::string> out;
+    for (const std::string& d : defines) {
+        auto eq = d.find('=');
+        if (eq == std::string::npos || eq == 0) throw std::runtime_error("-D expects name=value, got \"" + d + "\"");
+        out[d.substr(0, eq)] = d.substr(eq + 1);
+    }
+    return out;
 }
 
 }  // namespace iris

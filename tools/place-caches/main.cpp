@@ -48,11 +48,7 @@ int main(int argc, char** argv) {
         if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
         iris::check_output_path(output);
         iris::SceneLoadOptions lo;
-        for (const std::string& d : defines) {
-            auto eq = d.find('=');
-            if (eq == std::string::npos || eq == 0) throw std::runtime_error("-D expects name=value, got \"" + d + "\"");
-            lo.parameters[d.substr(0, eq)] = d.substr(eq + 1);
-        }
+        lo.parameters = iris::parse_defines(defines);
         iris::Scene scene = iris::load_scene(scene_path, lo);
         iris::PhotonMapFile pf = iris::read_photon_map(photons_path, scene.fingerprint);
         iris::PlacementStats stats;

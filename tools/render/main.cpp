@@ -62,11 +62,7 @@ int main(int argc, char** argv) {
         opt.mode = iris::parse_guide_mode(mode);
         if (!(bsdf_fraction >= 0 && bsdf_fraction < 1)) throw std::runtime_error("--bsdf-fraction must be in [0, 1)");
         iris::SceneLoadOptions lo;
-        for (const std::string& d : defines) {
-            auto eq = d.find('=');
-            if (eq == std::string::npos || eq == 0) throw std::runtime_error("-D expects name=value, got \"" + d + "\"");
-            lo.parameters[d.substr(0, eq)] = d.substr(eq + 1);
-        }
+        lo.parameters = iris::parse_defines(defines);
         opt.command_line = iris::join_args(argc, argv);
         iris::Scene scene = iris::load_scene(scene_path, lo);
         std::unique_ptr<iris::Guide> guide;
