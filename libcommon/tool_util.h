@@ -2,7 +2,10 @@
 // early check that the output can be written (before minutes of work, not after).
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <unistd.h>
+
+#include <cstdio>
 
 #include <filesystem>
 #include <map>
@@ -30,6 +33,27 @@ inline void check_output_path(const std::string& path) {
     if (!fs::is_directory(dir)) throw std::runtime_error(path + ": output directory does not exist");
     if (access(dir.c_str(), W_OK) != 0) throw std::runtime_error(path + ": output directory is not writable");
     if (fs::is_directory(path)) throw std::runtime_error(path + ": output path is a directory");
+}
+
+// Parses the command line. Returns -1 to go on, else the exit code: 0 after --help/--version, and
+// non-zero after a bad flag, reported like every other error as one line "tool: error: ..." (DESIGN 3).
+inline int parse_command_line(CLI::App& app, int argc, char** argv, const char* tool) {
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::Success& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "%s: error: %s (see --help)\n", tool, e.what());
+        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
+    }
+    return -1;
+}
+
+// "WxH" with positive integers, e.g. a --resolution value; throws otherwise.
+inline void parse_resolution(const std::string& s, int* width, int* height) {
+    char tail = 0;
+    if (std::sscanf(s.c_str(), "%dx%d%c", width, height, &tail) != 2 || *width <= 0 || *height <= 0)
+        throw std::runtime_error("--resolution must be WxH with positive integers, got \"" + s + "\"");
 }
 
 // "-D name=value" options into a parameter map (for $name in scene files).

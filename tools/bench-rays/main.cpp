@@ -3,6 +3,8 @@
 // camera sees (found once, untimed), directions uniform on the sphere, one rtcIntersect1 per ray, in
 // parallel with TBB. Only the casting is timed: no shading, no sampling, no film.
 #include <CLI/CLI.hpp>
+
+#include "libcommon/tool_util.h"
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
@@ -26,15 +28,7 @@ int main(int argc, char** argv) {
     app.add_option("--rays", rays, "Rays per repetition")->check(CLI::PositiveNumber);
     app.add_option("--repeats", repeats, "Repetitions; the median is reported")->check(CLI::PositiveNumber);
     app.add_option("-t,--threads", threads, "Worker threads (default: all cores)");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::Success& e) {
-        return app.exit(e);  // --help, --version
-    } catch (const CLI::ParseError& e) {
-        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
-        std::fprintf(stderr, "%s: error: %s (see --help)\n", "bench-rays", e.what());
-        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
-    }
+    if (int rc = iris::parse_command_line(app, argc, argv, "bench-rays"); rc >= 0) return rc;
     try {
         iris::SceneLoadOptions lo;
         std::vector<std::string> warnings;

@@ -3,6 +3,8 @@
 // (0 = within thresholds, 2 = a threshold exceeded, 1 = error), for tests, pipelines and benchmarks.
 #include <CLI/CLI.hpp>
 
+#include "libcommon/tool_util.h"
+
 #include <cstdio>
 #include <string>
 
@@ -57,15 +59,7 @@ int main(int argc, char** argv) {
     app.add_option("--max-mean-diff", max_mean_diff,
                    "Exit 2 if a channel's mean after sRGB 8-bit encoding differs by more than this percentage");
     app.add_flag("--json", json, "Print the metrics as one JSON object");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::Success& e) {
-        return app.exit(e);  // --help, --version
-    } catch (const CLI::ParseError& e) {
-        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
-        std::fprintf(stderr, "%s: error: %s (see --help)\n", "compare-images", e.what());
-        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
-    }
+    if (int rc = iris::parse_command_line(app, argc, argv, "compare-images"); rc >= 0) return rc;
     try {
         if (metadata) {
             iris::Image img = iris::read_exr(test_path);

@@ -32,15 +32,7 @@ int main(int argc, char** argv) {
     uint64_t seed = 0;
     app.add_option("--seed", seed, "Accepted for uniformity with the other tools (filling is not random)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::Success& e) {
-        return app.exit(e);  // --help, --version
-    } catch (const CLI::ParseError& e) {
-        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
-        std::fprintf(stderr, "fill-caches: error: %s (see --help)\n", e.what());
-        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
-    }
+    if (int rc = iris::parse_command_line(app, argc, argv, "fill-caches"); rc >= 0) return rc;
     try {
         if (opt.k == 0) throw std::runtime_error("--k must be positive");
         if (opt.resolution < 1 || opt.resolution > 256) throw std::runtime_error("--resolution must be in [1, 256]");

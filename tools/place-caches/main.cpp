@@ -27,22 +27,9 @@ int main(int argc, char** argv) {
     app.add_option("--seed", opt.seed, "Random seed");
     app.add_option("-D,--define", defines, "Scene parameter name=value");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
+    if (int rc = iris::parse_command_line(app, argc, argv, "place-caches"); rc >= 0) return rc;
     try {
-        app.parse(argc, argv);
-    } catch (const CLI::Success& e) {
-        return app.exit(e);  // --help, --version
-    } catch (const CLI::ParseError& e) {
-        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
-        std::fprintf(stderr, "place-caches: error: %s (see --help)\n", e.what());
-        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
-    }
-    try {
-        if (!resolution.empty()) {
-            char tail = 0;
-            if (std::sscanf(resolution.c_str(), "%dx%d%c", &opt.width, &opt.height, &tail) != 2 || opt.width <= 0 ||
-                opt.height <= 0)
-                throw std::runtime_error("--resolution must be WxH with positive integers, got \"" + resolution + "\"");
-        }
+        if (!resolution.empty()) iris::parse_resolution(resolution, &opt.width, &opt.height);
         if (opt.count == 0) throw std::runtime_error("--count must be positive");
         if (opt.camera_stride < 0) throw std::runtime_error("--camera-stride must be >= 0");
         if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");

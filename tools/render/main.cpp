@@ -38,26 +38,11 @@ int main(int argc, char** argv) {
                    "(default with --atlas; without an atlas: nee+bsdf, or bsdf+cache = BSDF sampling only)");
     app.add_option("--bsdf-fraction", bsdf_fraction, "Probability of BSDF sampling where a cache guides (0..1)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::Success& e) {
-        return app.exit(e);  // --help, --version
-    } catch (const CLI::ParseError& e) {
-        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
-        std::fprintf(stderr, "%s: error: %s (see --help)\n", "render", e.what());
-        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
-    }
+    if (int rc = iris::parse_command_line(app, argc, argv, "render"); rc >= 0) return rc;
     try {
         if (opt.spp < 0) throw std::runtime_error("--spp must be positive, got " + std::to_string(opt.spp));
         if (opt.time < 0) throw std::runtime_error("--time must be positive");
-        if (!resolution.empty()) {
-            int w = 0, h = 0;
-            char tail = 0;
-            if (std::sscanf(resolution.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w <= 0 || h <= 0)
-                throw std::runtime_error("--resolution must be WxH with positive integers, got \"" + resolution + "\"");
-            opt.width = w;
-            opt.height = h;
-        }
+        if (!resolution.empty()) iris::parse_resolution(resolution, &opt.width, &opt.height);
         iris::check_output_path(output);
         opt.mode = iris::parse_guide_mode(mode);
         if (!(bsdf_fraction >= 0 && bsdf_fraction < 1)) throw std::runtime_error("--bsdf-fraction must be in [0, 1)");

@@ -29,15 +29,7 @@ int main(int argc, char** argv) {
     app.add_option("--seed", opt.seed, "Random seed (same seed => same file, for any thread count)");
     app.add_option("-D,--define", defines, "Scene parameter name=value");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
-    try {
-        app.parse(argc, argv);
-    } catch (const CLI::Success& e) {
-        return app.exit(e);  // --help, --version
-    } catch (const CLI::ParseError& e) {
-        // Like every other error: one line on stderr, prefixed with the tool's name (DESIGN.md section 3).
-        std::fprintf(stderr, "trace-photons: error: %s (see --help)\n", e.what());
-        return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
-    }
+    if (int rc = iris::parse_command_line(app, argc, argv, "trace-photons"); rc >= 0) return rc;
     try {
         if (paths <= 0) throw std::runtime_error("--paths must be positive, got " + std::to_string(paths));
         opt.paths = uint64_t(paths);
