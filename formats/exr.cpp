@@ -4,6 +4,8 @@
 // "<tool>: error: <message>" and the user knows which file is at fault.
 #include "formats/exr.h"
 
+#include "formats/atomic_file.h"
+
 #include <fcntl.h>
 #include <png.h>
 #include <unistd.h>
@@ -134,12 +136,9 @@ void validate_for_write(const std::string& path, const Image& image) {
 
 void write_exr(const std::string& path, const Image& image) {
     validate_for_write(path, image);
-    const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
-    int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-    if (fd < 0) fail(path, std::string("cannot create temporary file '") + tmp + "': " + std::strerror(errno));
-    // From here on, every failure removes the temporary file before throwing.
     std::string error;
     try {
+        AtomicFile file(path);
         Imf::Header header(image.width, image.height);
         header.compression() = Imf::ZIP_COMPRESSION;
         for (const std::string& name : image.channels) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
@@ -149,26 +148,21 @@ void write_exr(const std::string& path, const Image& image) {
             fb.insert(image.channels[c],
                       Imf::Slice(Imf::FLOAT, (char*)image.data[c].data(), sizeof(float),
                                  sizeof(float) * size_t(image.width)));
-        FdOStream stream(tmp.c_str(), fd);
+        FdOStream stream(file.temp_path().c_str(), file.fd());
         {
             Imf::OutputFile out(stream, header);
             out.setFrameBuffer(fb);
             out.writePixels(image.height);
         }  // the destructor writes the offset table; its I/O errors surface in stream.error()
-        if (!stream.error().empty()) error = "write failed: " + stream.error();
+        if (!stream.error().empty()) fail(path, "cannot write EXR: write failed: " + stream.error());
+        file.commit();
+    } catch (const ImageError&) {
+        throw;
     } catch (const std::exception& e) {
         error = e.what();
     }
-    // fsync before rename: otherwise a crash right after the rename can leave an empty file under the
-    // final name on some file systems.
-    if (error.empty() && ::fsync(fd) != 0) error = std::string("fsync failed: ") + std::strerror(errno);
-    if (::close(fd) != 0 && error.empty()) error = std::string("close failed: ") + std::strerror(errno);
-    if (error.empty() && std::rename(tmp.c_str(), path.c_str()) != 0)
-        error = std::string("cannot rename temporary file into place: ") + std::strerror(errno);
-    if (!error.empty()) {
-        ::unlink(tmp.c_str());
-        fail(path, "cannot write EXR: " + error);
-    }
+    // (AtomicFile's messages already start with the path.)
+    if (!error.empty()) throw ImageError(error.rfind(path, 0) == 0 ? error : path + ": cannot write EXR: " + error);
 }
 
 Image read_exr(const std::string& path) {

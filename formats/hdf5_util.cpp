@@ -2,6 +2,8 @@
 // C++ one: every handle is owned by an Id below, and every failing call becomes a StageFileError).
 #include "formats/hdf5_util.h"
 
+#include "formats/atomic_file.h"
+
 #include <fcntl.h>
 #include <hdf5.h>
 #include <tbb/parallel_for.h>
@@ -419,16 +421,13 @@ namespace h5 {
 
 struct Writer::Impl {
     QuietHdf5 quiet;
-    std::string path, tmp;
+    std::string path;
+    std::unique_ptr<AtomicFile> out;  // the temporary file; renamed into place by commit()
     Id file;
-    bool tmp_exists = false, committed = false;
 
-    // Any failure, committed or not, ends with the temporary file removed: the final path either holds
-    // the complete new file or whatever it held before.
-    ~Impl() {
-        file.reset();
-        if (tmp_exists && !committed) ::unlink(tmp.c_str());
-    }
+    // Any failure, committed or not, ends with the temporary file removed (by ~AtomicFile, after HDF5
+    // has closed it): the final path either holds the complete new file or whatever it held before.
+    ~Impl() { file.reset(); }
 
     [[noreturn]] void fail(const std::string& message) const { throw StageFileError(path + ": " + one_line(message)); }
 
@@ -479,7 +478,6 @@ Writer::Writer(const std::string& path, const std::string& format, int version, 
     : impl_(std::make_unique<Impl>()) {
     Impl& w = *impl_;
     w.path = path;
-    w.tmp = path + ".tmp-" + std::to_string(::getpid());
     // The contract says every stage file names its scene: an empty one would disable the check that
     // stops a stage from mixing files made for different scenes.
     if (scene_fingerprint.empty()) w.fail("refusing to write: no scene fingerprint given");
@@ -490,15 +488,16 @@ Writer::Writer(const std::string& path, const std::string& format, int version, 
     }
 
     // Create the file with open() first: its errno says clearly why a directory is unusable, where
-    // HDF5 would bury it in a stack of messages.
-    int fd = ::open(w.tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
-    if (fd < 0) w.fail("cannot create temporary file '" + w.tmp + "': " + std::strerror(errno));
-    ::close(fd);
-    w.tmp_exists = true;
-
+    // HDF5 would bury it in a stack of messages. HDF5 then opens the same temporary file by name.
+    try {
+        w.out = std::make_unique<AtomicFile>(path);
+    } catch (const std::exception& e) {
+        throw StageFileError(one_line(e.what()));
+    }
+    const std::string& tmp = w.out->temp_path();
     Id fapl = file_access();
-    w.file = Id(H5Fcreate(w.tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose);
-    if (!w.file.valid()) w.fail("cannot create HDF5 file '" + w.tmp + "'" + hdf5_detail());
+    w.file = Id(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose);
+    if (!w.file.valid()) w.fail("cannot create HDF5 file '" + tmp + "'" + hdf5_detail());
 
     attribute_string("format", format);
     attribute_i32("format_version", version);
@@ -580,20 +579,13 @@ void Writer::dataset(const char* name, const std::vector<uint32_t>& v, const cha
 void Writer::commit() {
     Impl& w = *impl_;
     // Closing writes the remaining metadata; a failure here (disk full) means an incomplete file.
-    if (w.file.reset() < 0) fail("cannot finish writing '" + w.tmp + "'" + hdf5_detail());
-    // fsync before rename: otherwise a crash just after the rename can leave an empty file under the
-    // final name on some file systems.
-    int fd = ::open(w.tmp.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) fail("cannot reopen temporary file '" + w.tmp + "': " + std::strerror(errno));
-    if (::fsync(fd) != 0) {
-        int e = errno;
-        ::close(fd);
-        fail("fsync of '" + w.tmp + "' failed: " + std::strerror(e));
+    if (w.file.reset() < 0) fail("cannot finish writing '" + w.out->temp_path() + "'" + hdf5_detail());
+    // (fsync on our descriptor flushes what HDF5 wrote through its own: both name the same file.)
+    try {
+        w.out->commit();
+    } catch (const std::exception& e) {
+        throw StageFileError(one_line(e.what()));
     }
-    ::close(fd);
-    if (std::rename(w.tmp.c_str(), w.path.c_str()) != 0)
-        fail("cannot rename temporary file '" + w.tmp + "' into place: " + std::strerror(errno));
-    w.committed = true;
 }
 
 // ---- Reader ----------------------------------------------------------------------------------------

@@ -258,68 +258,83 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         });
     };
 
-    int spp = 0;
-    if (!timed) {
-        run_pass(0, target_spp);
-        spp = target_spp;
-    } else {
-        // Passes grow geometrically while the cost per sample is learnt, then are sized to end the
-        // render at the budget; a pass never takes more than ~1/8 of the budget, so the overshoot is small.
-        int pass = 1;
-        while (spp < target_spp) {
-            int n = std::min(pass, target_spp - spp);
-            run_pass(spp, spp + n);
-            spp += n;
-            double t = elapsed();
-            progress.advance(0);
-            double per_spp = t / spp;
-            double remaining = opt.time - t;
-            if (remaining < per_spp * 0.5) break;  // another sample would overshoot more than it helps
-            int fit = int(remaining / per_spp);
-            int cap = std::max(1, int(opt.time / 8 / per_spp));
-            pass = std::max(1, std::min(fit, std::min(cap, pass * 2)));
-        }
-    }
-    double seconds = elapsed();
-    progress.finish(std::to_string(spp) + " spp" +
-                    (nonfinite ? ", " + std::to_string(nonfinite.load()) + " NaN/Inf samples discarded" : ""));
-
-    Image img;
-    img.width = width;
-    img.height = height;
-    // (add_channel may reallocate the channel list: index the data after adding.)
-    for (const char* name : {"R", "G", "B"}) img.add_channel(name);
-    for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x) {
-            RGB v = film.value(x, y);
-            size_t i = size_t(y) * width + x;
-            for (int c = 0; c < 3; ++c) img.data[c][i] = v[c];
-        }
-    if (opt.variance_layer) {
-        const int first = int(img.channels.size());
-        for (const char* name : {"variance.R", "variance.G", "variance.B"}) img.add_channel(name);
+    // The image as it stands after `spp` samples per pixel (the final one, or a progressive snapshot).
+    auto make_image = [&](int spp, double seconds) {
+        Image img;
+        img.width = width;
+        img.height = height;
+        // (add_channel may reallocate the channel list: index the data after adding.)
+        for (const char* name : {"R", "G", "B"}) img.add_channel(name);
         for (int y = 0; y < height; ++y)
             for (int x = 0; x < width; ++x) {
-                RGB v = film.variance(x, y);
+                RGB v = film.value(x, y);
                 size_t i = size_t(y) * width + x;
-                for (int c = 0; c < 3; ++c) img.data[first + c][i] = v[c];
+                for (int c = 0; c < 3; ++c) img.data[c][i] = v[c];
             }
+        if (opt.variance_layer) {
+            const int first = int(img.channels.size());
+            for (const char* name : {"variance.R", "variance.G", "variance.B"}) img.add_channel(name);
+            for (int y = 0; y < height; ++y)
+                for (int x = 0; x < width; ++x) {
+                    RGB v = film.variance(x, y);
+                    size_t i = size_t(y) * width + x;
+                    for (int c = 0; c < 3; ++c) img.data[first + c][i] = v[c];
+                }
+        }
+        if (opt.samples_layer) {
+            auto& S = img.add_channel("samples");
+            for (size_t i = 0; i < S.size(); ++i) S[i] = float(film.count[i]);
+        }
+        img.metadata["iris:spp"] = std::to_string(spp);
+        img.metadata["iris:seconds"] = std::to_string(seconds);
+        img.metadata["iris:seed"] = std::to_string(opt.seed);
+        img.metadata["iris:max_depth"] = std::to_string(ps.max_depth);
+        img.metadata["iris:nonfinite_samples"] = std::to_string(nonfinite.load());
+        img.metadata["iris:scene"] = scene.source;
+        img.metadata["iris:scene_fingerprint"] = scene.fingerprint;
+        img.metadata["iris:command_line"] = opt.command_line;
+        img.metadata["iris:version"] = IRIS_VERSION;
+        img.metadata["iris:tool"] = "render";
+        img.metadata["iris:mode"] = guide_mode_name(ps.mode);
+        return img;
+    };
+
+    // Passes: one for a fixed spp without snapshots (best load balance). Otherwise passes grow
+    // geometrically while the cost per sample is learnt, then are sized so that a pass takes at most
+    // ~1/8 of the time budget (so a timed render ends close to its budget) and at most about half the
+    // snapshot interval (so snapshots come on time). Samples are seeded per (pixel, index), so how the
+    // passes are cut does not change the image.
+    const bool snapshots = opt.snapshot_interval > 0 && opt.snapshot;
+    int spp = 0;
+    double last_snapshot = 0;
+    int pass = 1;
+    while (spp < target_spp) {
+        const int n = (timed || snapshots) ? std::min(pass, target_spp - spp) : target_spp;
+        run_pass(spp, spp + n);
+        spp += n;
+        const double t = elapsed();
+        progress.advance(0);
+        if (spp >= target_spp) break;
+        const double per_spp = t / spp;
+        double horizon = 1e300;  // the longest a pass should take, seconds
+        if (timed) {
+            const double remaining = opt.time - t;
+            if (remaining < per_spp * 0.5) break;  // another sample would overshoot more than it helps
+            horizon = std::min(remaining, opt.time / 8);
+        }
+        if (snapshots) {
+            if (t - last_snapshot >= opt.snapshot_interval) {
+                opt.snapshot(make_image(spp, t));
+                last_snapshot = elapsed();
+            }
+            horizon = std::min(horizon, opt.snapshot_interval / 2);
+        }
+        pass = std::max(1, std::min(int(std::min(horizon / per_spp, 1e9)), pass * 2));
     }
-    if (opt.samples_layer) {
-        auto& S = img.add_channel("samples");
-        for (size_t i = 0; i < S.size(); ++i) S[i] = float(film.count[i]);
-    }
-    img.metadata["iris:spp"] = std::to_string(spp);
-    img.metadata["iris:seconds"] = std::to_string(seconds);
-    img.metadata["iris:seed"] = std::to_string(opt.seed);
-    img.metadata["iris:max_depth"] = std::to_string(ps.max_depth);
-    img.metadata["iris:nonfinite_samples"] = std::to_string(nonfinite.load());
-    img.metadata["iris:scene"] = scene.source;
-    img.metadata["iris:scene_fingerprint"] = scene.fingerprint;
-    img.metadata["iris:command_line"] = opt.command_line;
-    img.metadata["iris:version"] = IRIS_VERSION;
-    img.metadata["iris:tool"] = "render";
-    img.metadata["iris:mode"] = guide_mode_name(ps.mode);
+    const double seconds = elapsed();
+    progress.finish(std::to_string(spp) + " spp" +
+                    (nonfinite ? ", " + std::to_string(nonfinite.load()) + " NaN/Inf samples discarded" : ""));
+    Image img = make_image(spp, seconds);
     if (stats) {
         stats->spp = spp;
         stats->seconds = seconds;

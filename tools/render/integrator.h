@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "formats/exr.h"
@@ -26,6 +27,10 @@ struct RenderOptions {
     std::string command_line;     // recorded in the output's metadata
     const Guide* guide = nullptr; // cache atlas to guide with (null = unguided)
     GuideMode mode = GuideMode::NeeBsdfCache;  // how techniques combine when guided
+    // Progressive snapshots: when > 0 and `snapshot` is set, it is called with the image so far about
+    // every `snapshot_interval` seconds (between passes, on the calling thread).
+    double snapshot_interval = 0;
+    std::function<void(const Image&)> snapshot;
 };
 
 struct RenderStats {

@@ -1,6 +1,7 @@
 // render: the iris path tracer's command line. A thin shell over tools/render/integrator.h.
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -37,11 +38,16 @@ int main(int argc, char** argv) {
                    "How sampling techniques combine: nee+bsdf | nee+cache | bsdf+cache | nee+bsdf+cache "
                    "(default with --atlas; without an atlas: nee+bsdf, or bsdf+cache = BSDF sampling only)");
     app.add_option("--bsdf-fraction", bsdf_fraction, "Probability of BSDF sampling where a cache guides (0..1)");
+    app.add_option("--snapshot", opt.snapshot_interval,
+                   "Every SECONDS, write the image so far to the output (atomically), so that an interrupted "
+                   "render still leaves a usable image");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     if (int rc = iris::parse_command_line(app, argc, argv, "render"); rc >= 0) return rc;
     try {
         if (opt.spp < 0) throw std::runtime_error("--spp must be positive, got " + std::to_string(opt.spp));
         if (opt.time < 0) throw std::runtime_error("--time must be positive");
+        if (!(opt.snapshot_interval >= 0 && std::isfinite(opt.snapshot_interval)))
+            throw std::runtime_error("--snapshot must be a positive number of seconds");
         if (!resolution.empty()) iris::parse_resolution(resolution, &opt.width, &opt.height);
         iris::check_output_path(output);
         opt.mode = iris::parse_guide_mode(mode);
@@ -58,6 +64,7 @@ int main(int argc, char** argv) {
         } else if (atlas_path.empty() && (opt.mode == iris::GuideMode::NeeCache)) {
             throw std::runtime_error("--mode nee+cache needs --atlas");
         }
+        if (opt.snapshot_interval > 0) opt.snapshot = [&](const iris::Image& img) { iris::write_exr(output, img); };
         iris::RenderStats stats;
         iris::Image img = iris::render_image(scene, opt, &stats);
         iris::write_exr(output, img);
