@@ -5,10 +5,13 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
+#include <cstdlib>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
+#include <thread>
 
 namespace iris {
 
@@ -59,6 +62,11 @@ AtomicFile::~AtomicFile() {
 }
 
 void AtomicFile::commit() {
+    // Fault injection for the kill tests (tests/pipeline/test_kill.cpp): hold the complete but not yet
+    // renamed file for IRIS_TEST_COMMIT_DELAY_MS milliseconds, so a test can kill the writer at the
+    // moment that matters most without racing it.
+    if (const char* ms = std::getenv("IRIS_TEST_COMMIT_DELAY_MS"))
+        std::this_thread::sleep_for(std::chrono::milliseconds(std::atol(ms)));
     // fsync before rename: otherwise a crash right after the rename can leave an empty file under the
     // final name on some file systems (the rename reaches the disk before the data).
     if (::fsync(fd_) != 0) fail(path_, "fsync of '" + tmp_ + "' failed: " + errno_text());

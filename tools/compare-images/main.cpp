@@ -61,6 +61,9 @@ int main(int argc, char** argv) {
     app.add_flag("--json", json, "Print the metrics as one JSON object");
     if (int rc = iris::parse_command_line(app, argc, argv, "compare-images"); rc >= 0) return rc;
     try {
+        // Outputs are checked before any work, so a bad path costs nothing and prints only its error.
+        if (!srgb_png.empty()) iris::check_output_path(srgb_png);
+        if (!error_image.empty()) iris::check_output_path(error_image);
         if (metadata) {
             iris::Image img = iris::read_exr(test_path);
             for (const auto& [k, v] : img.metadata) std::printf("%s %s\n", k.c_str(), v.c_str());

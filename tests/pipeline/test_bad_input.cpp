@@ -1,0 +1,309 @@
+// The bad-input catalogue: every way a user can hand a tool something wrong -- a malformed or
+// truncated scene, an unknown plugin, a missing or corrupt mesh, a stage file of the wrong kind, made
+// for another scene, truncated or no HDF5 at all, a nonsense flag, an unwritable output -- and the
+// contract each must meet (DESIGN.md section 3): a non-zero exit that is not a crash, exactly one line
+// of output "TOOL: error: ..." naming the problem (the flag, or the file at fault), and nothing written:
+// no output file and no temporary file.
+//
+// One test per case. With IRIS_ROBUSTNESS_TABLE=FILE set, each case also appends a Markdown table row
+// with the message the tool printed; scripts/robustness-table.sh turns that into docs/ROBUSTNESS.md.
+#include <gtest/gtest.h>
+#include <hdf5.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "support/run_tool.h"
+
+namespace fs = std::filesystem;
+using namespace iris::test;
+
+namespace {
+
+struct BadInputCase {
+    const char* id;       // test name
+    const char* tool;     // which executable
+    const char* problem;  // what is wrong, for the catalogue in docs/ROBUSTNESS.md
+    const char* args;     // {in}/NAME: a prepared input file; {out}: the output path (in an empty folder)
+    const char* mention;  // the error line must contain this (the flag, the file's name, or the reason)
+};
+
+// Scene files: a small valid scene with one defect each. The base is a sphere lit by a rectangle.
+std::string scene_with(const std::string& shape_body, const std::string& extra = "") {
+    return R"(<?xml version="1.0"?>
+<scene version="0.5.0">
+  <integrator type="path"/>
+  <shape type="rectangle">
+    <emitter type="area"><rgb name="radiance" value="1, 1, 1"/></emitter>
+  </shape>
+  <shape )" + shape_body + R"(
+  </shape>)" + extra + R"(
+  <sensor type="perspective">
+    <transform name="toWorld"><lookAt origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+  </sensor>
+</scene>
+)";
+}
+
+std::string obj_shape(const std::string& file) {
+    return "type=\"obj\">\n    <string name=\"filename\" value=\"" + file + "\"/>";
+}
+
+void write_text(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+
+std::string read_bytes(const fs::path& path) {
+    std::ifstream f(path, std::ios::binary);
+    std::stringstream ss;
+    ss << f.rdbuf();
+    return ss.str();
+}
+
+std::vector<std::string> lines_of(const std::string& text) {
+    std::vector<std::string> out;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);)
+        if (!line.empty()) out.push_back(line);
+    return out;
+}
+
+std::string replace_all(std::string s, const std::string& from, const std::string& to) {
+    for (size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) s.replace(at, from.size(), to);
+    return s;
+}
+
+// (Names the case in gtest's messages instead of dumping its bytes.)
+void PrintTo(const BadInputCase& c, std::ostream* os) { *os << c.id; }
+
+class BadInput : public ::testing::TestWithParam<BadInputCase> {
+protected:
+    // Inputs shared by all cases, made once: valid stage files of the caustic test scene and of the
+    // furnace box (another scene), a valid image, and one defective file per kind of defect.
+    static void SetUpTestSuite() {
+        dir_ = new TempDir;
+        auto in = [](const std::string& name) { return dir_->file(name); };
+        auto run = [](const std::string& cmd) {
+            ToolResult r = run_command(cmd);
+            ASSERT_EQ(r.status, 0) << cmd << "\n" << r.output;
+        };
+        const std::string caustic = data_file("guiding/caustic_box.xml"), furnace = data_file("render/furnace_box.xml");
+        const std::string q = " -q --seed 3";
+        run(tool("trace-photons") + " " + caustic + " -o " + in("photons.h5") + " --paths 2000" + q);
+        run(tool("place-caches") + " " + caustic + " --photons " + in("photons.h5") + " -o " + in("caches.h5") +
+            " --count 40" + q);
+        run(tool("fill-caches") + " " + in("caches.h5") + " --photons " + in("photons.h5") + " -o " + in("atlas.h5") +
+            " --k 50 --resolution 4" + q);
+        run(tool("trace-photons") + " " + furnace + " -o " + in("furnace_photons.h5") + " --paths 500" + q);
+        run(tool("place-caches") + " " + furnace + " --photons " + in("furnace_photons.h5") + " -o " +
+            in("furnace_caches.h5") + " --count 10" + q);
+        run(tool("fill-caches") + " " + in("furnace_caches.h5") + " --photons " + in("furnace_photons.h5") + " -o " +
+            in("furnace_atlas.h5") + " --k 20 --resolution 4" + q);
+        run(tool("render") + " " + furnace + " -o " + in("image.exr") + " --spp 4" + q);
+        run(tool("render") + " " + furnace + " -o " + in("small.exr") + " --spp 4 --resolution 8x8" + q);
+
+        // Files that are not what they claim to be.
+        write_text(in("text.h5"), "not an HDF5 file\n");
+        write_text(in("empty.h5"), "");
+        write_text(in("text.exr"), "not an image\n");
+        for (const char* name : {"photons.h5", "caches.h5", "atlas.h5", "image.exr"}) {
+            const std::string bytes = read_bytes(in(name));
+            write_text(in(std::string("truncated_") + name), bytes.substr(0, bytes.size() / 2));
+        }
+        {  // A valid HDF5 file that is no iris stage file.
+            hid_t f = H5Fcreate(in("plain.h5").c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+            ASSERT_GE(f, 0);
+            H5Fclose(f);
+        }
+
+        // Scenes.
+        const std::string sphere = "type=\"sphere\">\n    <float name=\"radius\" value=\"0.5\"/>";
+        write_text(in("valid.xml"), scene_with(sphere));
+        write_text(in("malformed.xml"), "<?xml version=\"1.0\"?>\n<scene version=\"0.5.0\">\n  <shape type=\"sphere\">\n");
+        const std::string caustic_text = read_bytes(caustic);
+        write_text(in("caustic.xml"), caustic_text);  // (so that every scene argument reads {in}/NAME)
+        write_text(in("truncated.xml"), caustic_text.substr(0, caustic_text.size() * 6 / 10));
+        write_text(in("unknown_plugin.xml"), scene_with(sphere + "\n    <bsdf type=\"velvet\"/>"));
+        write_text(in("misspelt.xml"), scene_with("type=\"sphere\">\n    <float name=\"radus\" value=\"0.5\"/>"));
+        write_text(in("bad_number.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"half\"/>"));
+        write_text(in("nan_number.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"nan\"/>"));
+        write_text(in("negative_radius.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"-1\"/>"));
+        write_text(in("bad_rgb.xml"),
+                   scene_with(sphere + "\n    <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5, 0.5\"/></bsdf>"));
+        write_text(in("wrong_version.xml"),
+                   replace_all(scene_with(sphere), "<scene version=\"0.5.0\">", "<scene version=\"3.0.0\">"));
+        write_text(in("unset_parameter.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"$r\"/>"));
+        write_text(in("missing_mesh.xml"), scene_with(obj_shape("no_such_mesh.obj")));
+        write_text(in("bad_index.xml"), scene_with(obj_shape("bad_index.obj")));
+        write_text(in("bad_index.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+        write_text(in("garbage_obj.xml"), scene_with(obj_shape("garbage.obj")));
+        write_text(in("garbage.obj"), "v 1 zwei 3\n\x01\x02\xff\n");
+        write_text(in("nan_vertex.xml"), scene_with(obj_shape("nan_vertex.obj")));
+        write_text(in("nan_vertex.obj"), "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n");
+        write_text(in("huge_vertex.xml"), scene_with(obj_shape("huge_vertex.obj")));
+        write_text(in("huge_vertex.obj"), "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n");
+        write_text(in("empty_obj.xml"), scene_with(obj_shape("empty.obj")));
+        write_text(in("empty.obj"), "# no faces\nv 0 0 0\n");
+        fs::create_directory(in("adir"));
+    }
+    static void TearDownTestSuite() {
+        delete dir_;
+        dir_ = nullptr;
+    }
+    static TempDir* dir_;
+};
+TempDir* BadInput::dir_ = nullptr;
+
+TEST_P(BadInput, OneLineErrorNoOutput) {
+    const BadInputCase& c = GetParam();
+    TempDir out_dir;
+    const std::string tool_name = c.tool;
+    const std::string ext = tool_name == "render" ? ".exr" : tool_name == "compare-images" ? ".png" : ".h5";
+    const std::string out = out_dir.file("out" + ext);
+    std::string args = replace_all(replace_all(c.args, "{in}", dir_->path.string()), "{out}", out);
+    const std::string cmd = tool(tool_name) + " " + args + (tool_name == "compare-images" ? "" : " -q");
+    const auto inputs_before = std::distance(fs::directory_iterator(dir_->path), fs::directory_iterator());
+    ToolResult r = run_command(cmd);
+    SCOPED_TRACE(cmd);
+
+    EXPECT_TRUE(r.status > 0 && r.status < 128) << "expected an error exit, got status " << r.status << "\n" << r.output;
+    const std::vector<std::string> lines = lines_of(r.output);
+    ASSERT_EQ(lines.size(), 1u) << "expected exactly one line of output, got:\n" << r.output;
+    const std::string& line = lines[0];
+    EXPECT_EQ(line.rfind(tool_name + ": error: ", 0), 0u) << line;
+    EXPECT_NE(line.find(c.mention), std::string::npos) << "the error should mention \"" << c.mention << "\": " << line;
+    EXPECT_LE(line.size(), 400u) << "an error line should be short enough to read";
+    // Nothing written: the output folder stays empty (no output, no temporary file), and no input folder
+    // gains a file either (an output path pointing there).
+    EXPECT_TRUE(fs::is_empty(out_dir.path)) << "a file was left in the output folder";
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir_->path), fs::directory_iterator()), inputs_before)
+        << "a file appeared among the inputs";
+
+    if (const char* table = std::getenv("IRIS_ROBUSTNESS_TABLE")) {
+        // Paths of this run's temporary folders become in/ and out/ so the table reads the same every time.
+        std::string shown = replace_all(replace_all(line, dir_->path.string() + "/", "in/"), out_dir.path.string() + "/", "out/");
+        shown = replace_all(shown, std::string(IRIS_SOURCE_DIR) + "/", "");
+        shown = replace_all(shown, "|", "\\|");
+        std::ofstream(table, std::ios::app) << "| `" << c.tool << "` | " << c.problem << " | `" << shown << "` |\n";
+    }
+}
+
+// clang-format off
+const BadInputCase kCases[] = {
+    // ---- Scene files (read by every tool that takes a scene; shown through render) ----
+    {"SceneMissing", "render", "scene file does not exist", "{in}/missing.xml -o {out}", "missing.xml"},
+    {"SceneNotXml", "render", "scene file is not XML", "{in}/text.h5 -o {out}", "text.h5"},
+    {"SceneMalformed", "render", "malformed XML (unclosed element)", "{in}/malformed.xml -o {out}", "malformed.xml"},
+    {"SceneTruncated", "render", "scene file cut off midway", "{in}/truncated.xml -o {out}", "truncated.xml"},
+    {"SceneUnknownPlugin", "render", "unknown plugin (bsdf type velvet)", "{in}/unknown_plugin.xml -o {out}", "velvet"},
+    {"SceneMisspeltParameter", "render", "misspelt parameter (radus)", "{in}/misspelt.xml -o {out}", "radus"},
+    {"SceneBadNumber", "render", "a number that is not one", "{in}/bad_number.xml -o {out}", "bad_number.xml"},
+    {"SceneNanNumber", "render", "NaN as a parameter value", "{in}/nan_number.xml -o {out}", "nan_number.xml"},
+    {"SceneNegativeRadius", "render", "negative sphere radius", "{in}/negative_radius.xml -o {out}", "radius"},
+    {"SceneBadRgb", "render", "rgb value with two components", "{in}/bad_rgb.xml -o {out}", "bad_rgb.xml"},
+    {"SceneWrongVersion", "render", "scene format version iris does not read", "{in}/wrong_version.xml -o {out}", "version"},
+    {"SceneUnsetParameter", "render", "$r used but neither defined nor defaulted", "{in}/unset_parameter.xml -o {out}", "$r"},
+    {"SceneBadDefine", "render", "-D without name=value", "{in}/valid.xml -D radius -o {out}", "-D"},
+    {"MeshMissing", "render", "OBJ mesh file does not exist", "{in}/missing_mesh.xml -o {out}", "no_such_mesh.obj"},
+    {"MeshBadIndex", "render", "OBJ face index out of range", "{in}/bad_index.xml -o {out}", "bad_index.obj"},
+    {"MeshGarbage", "render", "OBJ with garbage text and binary bytes", "{in}/garbage_obj.xml -o {out}", "garbage.obj"},
+    {"MeshNanVertex", "render", "OBJ vertex with NaN coordinate", "{in}/nan_vertex.xml -o {out}", "nan_vertex.obj"},
+    {"MeshInfVertex", "render", "OBJ vertex overflowing float (1e39)", "{in}/huge_vertex.xml -o {out}", "huge_vertex.obj"},
+    {"MeshEmpty", "render", "OBJ without faces", "{in}/empty_obj.xml -o {out}", "empty.obj"},
+    {"TracePhotonsSceneMissing", "trace-photons", "scene file does not exist", "{in}/missing.xml -o {out}", "missing.xml"},
+    {"PlaceCachesSceneMalformed", "place-caches", "malformed scene", "{in}/malformed.xml --photons {in}/photons.h5 -o {out}", "malformed.xml"},
+
+    // ---- render flags and inputs ----
+    {"RenderNegativeSpp", "render", "--spp -1", "{in}/valid.xml --spp -1 -o {out}", "--spp"},
+    {"RenderTextSpp", "render", "--spp abc", "{in}/valid.xml --spp abc -o {out}", "--spp"},
+    {"RenderZeroResolution", "render", "--resolution 0x5", "{in}/valid.xml --resolution 0x5 -o {out}", "--resolution"},
+    {"RenderTextResolution", "render", "--resolution abc", "{in}/valid.xml --resolution abc -o {out}", "--resolution"},
+    {"RenderNegativeTime", "render", "--time -3", "{in}/valid.xml --time -3 -o {out}", "--time"},
+    {"RenderNegativeThreads", "render", "--threads -1", "{in}/valid.xml -t -1 -o {out}", "--threads"},
+    {"RenderNegativeSnapshot", "render", "--snapshot -1", "{in}/valid.xml --snapshot -1 -o {out}", "--snapshot"},
+    {"RenderBsdfFraction", "render", "--bsdf-fraction 1.5", "{in}/valid.xml --atlas {in}/atlas.h5 --bsdf-fraction 1.5 -o {out}", "--bsdf-fraction"},
+    {"RenderUnknownMode", "render", "--mode that does not exist", "{in}/valid.xml --mode bogus -o {out}", "bogus"},
+    {"RenderCacheModeWithoutAtlas", "render", "--mode nee+cache without --atlas", "{in}/valid.xml --mode nee+cache -o {out}", "--atlas"},
+    {"RenderUnknownFlag", "render", "a flag that does not exist", "{in}/valid.xml --no-such-flag -o {out}", "--no-such-flag"},
+    {"RenderNoOutput", "render", "-o left out", "{in}/valid.xml", "--output"},
+    {"RenderAtlasMissing", "render", "--atlas file does not exist", "{in}/valid.xml --atlas {in}/missing.h5 -o {out}", "missing.h5"},
+    {"RenderAtlasNotHdf5", "render", "--atlas is a text file", "{in}/valid.xml --atlas {in}/text.h5 -o {out}", "not an HDF5 file"},
+    {"RenderAtlasEmpty", "render", "--atlas is an empty file", "{in}/valid.xml --atlas {in}/empty.h5 -o {out}", "empty.h5"},
+    {"RenderAtlasTruncated", "render", "--atlas cut off midway", "{in}/valid.xml --atlas {in}/truncated_atlas.h5 -o {out}", "truncated_atlas.h5"},
+    {"RenderAtlasWrongKind", "render", "--atlas is a photon map", "{in}/valid.xml --atlas {in}/photons.h5 -o {out}", "iris-photon-map"},
+    {"RenderAtlasPlainHdf5", "render", "--atlas is an HDF5 file but no stage file", "{in}/valid.xml --atlas {in}/plain.h5 -o {out}", "plain.h5"},
+    {"RenderAtlasOtherScene", "render", "--atlas made for another scene", "{in}/valid.xml --atlas {in}/furnace_atlas.h5 -o {out}", "another scene"},
+    {"RenderOutputDirMissing", "render", "output folder does not exist", "{in}/valid.xml -o /nonexistent-dir/x.exr", "/nonexistent-dir/x.exr"},
+    {"RenderOutputIsDirectory", "render", "output path is a folder", "{in}/valid.xml -o {in}/adir", "directory"},
+
+    // ---- trace-photons ----
+    {"TracePhotonsZeroPaths", "trace-photons", "--paths 0", "{in}/valid.xml --paths 0 -o {out}", "--paths"},
+    {"TracePhotonsNegativePaths", "trace-photons", "--paths -5 (once wrapped to 2^64-5)", "{in}/valid.xml --paths -5 -o {out}", "--paths"},
+    {"TracePhotonsTextPaths", "trace-photons", "--paths abc", "{in}/valid.xml --paths abc -o {out}", "--paths"},
+    {"TracePhotonsZeroDepth", "trace-photons", "--max-depth 0", "{in}/valid.xml --max-depth 0 -o {out}", "--max-depth"},
+    {"TracePhotonsNegativeDepth", "trace-photons", "--max-depth -3", "{in}/valid.xml --max-depth -3 -o {out}", "--max-depth"},
+    {"TracePhotonsZeroRrDepth", "trace-photons", "--rr-depth 0", "{in}/valid.xml --rr-depth 0 -o {out}", "--rr-depth"},
+    {"TracePhotonsCutoff", "trace-photons", "--cutoff 1", "{in}/valid.xml --cutoff 1 -o {out}", "--cutoff"},
+    {"TracePhotonsNegativeThreads", "trace-photons", "--threads -1", "{in}/valid.xml -t -1 -o {out}", "--threads"},
+    {"TracePhotonsUnknownFlag", "trace-photons", "a flag that does not exist", "{in}/valid.xml --no-such-flag 3 -o {out}", "--no-such-flag"},
+    {"TracePhotonsOutputDirMissing", "trace-photons", "output folder does not exist", "{in}/valid.xml -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
+    {"TracePhotonsOutputIsDirectory", "trace-photons", "output path is a folder", "{in}/valid.xml -o {in}/adir", "directory"},
+
+    // ---- place-caches ----
+    {"PlaceCachesZeroCount", "place-caches", "--count 0", "{in}/valid.xml --photons {in}/photons.h5 --count 0 -o {out}", "--count"},
+    {"PlaceCachesNegativeCount", "place-caches", "--count -3", "{in}/valid.xml --photons {in}/photons.h5 --count -3 -o {out}", "--count"},
+    {"PlaceCachesNegativeStride", "place-caches", "--camera-stride -1", "{in}/valid.xml --photons {in}/photons.h5 --camera-stride -1 -o {out}", "--camera-stride"},
+    {"PlaceCachesZeroResolution", "place-caches", "--resolution 0x4", "{in}/valid.xml --photons {in}/photons.h5 --resolution 0x4 -o {out}", "--resolution"},
+    {"PlaceCachesNegativeThreads", "place-caches", "--threads -1", "{in}/valid.xml --photons {in}/photons.h5 -t -1 -o {out}", "--threads"},
+    {"PlaceCachesNoPhotons", "place-caches", "--photons left out", "{in}/valid.xml -o {out}", "--photons"},
+    {"PlaceCachesPhotonsMissing", "place-caches", "photon map does not exist", "{in}/valid.xml --photons {in}/missing.h5 -o {out}", "missing.h5"},
+    {"PlaceCachesPhotonsOtherScene", "place-caches", "photon map made for another scene", "{in}/valid.xml --photons {in}/photons.h5 -o {out}", "another scene"},
+    {"PlaceCachesPhotonsAreAtlas", "place-caches", "an atlas given as the photon map", "{in}/valid.xml --photons {in}/atlas.h5 -o {out}", "iris-cache-atlas"},
+    {"PlaceCachesPhotonsAreCaches", "place-caches", "cache points given as the photon map", "{in}/valid.xml --photons {in}/caches.h5 -o {out}", "iris-cache-points"},
+    {"PlaceCachesPhotonsNotHdf5", "place-caches", "photon map is a text file", "{in}/valid.xml --photons {in}/text.h5 -o {out}", "not an HDF5 file"},
+    {"PlaceCachesPhotonsTruncated", "place-caches", "photon map cut off midway", "{in}/valid.xml --photons {in}/truncated_photons.h5 -o {out}", "truncated_photons.h5"},
+    {"PlaceCachesOutputIsDirectory", "place-caches", "output path is a folder", "{in}/caustic.xml --photons {in}/photons.h5 -o {in}/adir", "directory"},
+    {"PlaceCachesOutputDirMissing", "place-caches", "output folder does not exist", "{in}/valid.xml --photons {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
+
+    // ---- fill-caches ----
+    {"FillCachesZeroK", "fill-caches", "--k 0", "{in}/caches.h5 --photons {in}/photons.h5 --k 0 -o {out}", "--k"},
+    {"FillCachesNegativeK", "fill-caches", "--k -2", "{in}/caches.h5 --photons {in}/photons.h5 --k -2 -o {out}", "--k"},
+    {"FillCachesZeroResolution", "fill-caches", "--resolution 0", "{in}/caches.h5 --photons {in}/photons.h5 --resolution 0 -o {out}", "--resolution"},
+    {"FillCachesHugeResolution", "fill-caches", "--resolution 257", "{in}/caches.h5 --photons {in}/photons.h5 --resolution 257 -o {out}", "--resolution"},
+    {"FillCachesZeroFloor", "fill-caches", "--floor 0", "{in}/caches.h5 --photons {in}/photons.h5 --floor 0 -o {out}", "--floor"},
+    {"FillCachesFloorAboveOne", "fill-caches", "--floor 1.5", "{in}/caches.h5 --photons {in}/photons.h5 --floor 1.5 -o {out}", "--floor"},
+    {"FillCachesZeroRadius", "fill-caches", "--max-radius 0", "{in}/caches.h5 --photons {in}/photons.h5 --max-radius 0 -o {out}", "--max-radius"},
+    {"FillCachesNegativeSigma", "fill-caches", "--filter-sigma -1", "{in}/caches.h5 --photons {in}/photons.h5 --filter-sigma -1 -o {out}", "--filter-sigma"},
+    {"FillCachesNegativeThreads", "fill-caches", "--threads -1", "{in}/caches.h5 --photons {in}/photons.h5 -t -1 -o {out}", "--threads"},
+    {"FillCachesCachesMissing", "fill-caches", "cache file does not exist", "{in}/missing.h5 --photons {in}/photons.h5 -o {out}", "missing.h5"},
+    {"FillCachesPhotonsMissing", "fill-caches", "photon map does not exist", "{in}/caches.h5 --photons {in}/missing.h5 -o {out}", "missing.h5"},
+    {"FillCachesMismatchedScenes", "fill-caches", "caches and photons of different scenes", "{in}/caches.h5 --photons {in}/furnace_photons.h5 -o {out}", "another scene"},
+    {"FillCachesPhotonsAreAtlas", "fill-caches", "an atlas given as the photon map", "{in}/caches.h5 --photons {in}/atlas.h5 -o {out}", "iris-cache-atlas"},
+    {"FillCachesCachesArePhotons", "fill-caches", "a photon map given as the caches", "{in}/photons.h5 --photons {in}/photons.h5 -o {out}", "iris-photon-map"},
+    {"FillCachesCachesNotHdf5", "fill-caches", "cache file is a text file", "{in}/text.h5 --photons {in}/photons.h5 -o {out}", "not an HDF5 file"},
+    {"FillCachesCachesEmpty", "fill-caches", "cache file is empty", "{in}/empty.h5 --photons {in}/photons.h5 -o {out}", "empty.h5"},
+    {"FillCachesCachesTruncated", "fill-caches", "cache file cut off midway", "{in}/truncated_caches.h5 --photons {in}/photons.h5 -o {out}", "truncated_caches.h5"},
+    {"FillCachesPhotonsTruncated", "fill-caches", "photon map cut off midway", "{in}/caches.h5 --photons {in}/truncated_photons.h5 -o {out}", "truncated_photons.h5"},
+    {"FillCachesCachesPlainHdf5", "fill-caches", "HDF5 file that is no stage file", "{in}/plain.h5 --photons {in}/photons.h5 -o {out}", "plain.h5"},
+    {"FillCachesOutputDirMissing", "fill-caches", "output folder does not exist", "{in}/caches.h5 --photons {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
+    {"FillCachesOutputIsDirectory", "fill-caches", "output path is a folder", "{in}/caches.h5 --photons {in}/photons.h5 -o {in}/adir", "directory"},
+
+    // ---- compare-images ----
+    {"CompareTestMissing", "compare-images", "test image does not exist", "{in}/missing.exr {in}/image.exr -o {out}", "missing.exr"},
+    {"CompareReferenceMissing", "compare-images", "reference image does not exist", "{in}/image.exr {in}/missing.exr -o {out}", "missing.exr"},
+    {"CompareNoReference", "compare-images", "reference left out", "{in}/image.exr -o {out}", "reference"},
+    {"CompareNotAnImage", "compare-images", "test image is a text file", "{in}/text.exr {in}/image.exr -o {out}", "text.exr"},
+    {"CompareTruncatedExr", "compare-images", "EXR cut off midway", "{in}/truncated_image.exr {in}/image.exr -o {out}", "truncated_image.exr"},
+    {"CompareSizeMismatch", "compare-images", "images of different sizes", "{in}/small.exr {in}/image.exr -o {out}", "size"},
+    {"CompareBadMask", "compare-images", "--mask not x0,y0,x1,y1", "{in}/image.exr {in}/image.exr --mask 1,2 -o {out}", "--mask"},
+    {"CompareOutputDirMissing", "compare-images", "error image folder does not exist", "{in}/image.exr {in}/image.exr -o /nonexistent-dir/e.png", "/nonexistent-dir/e.png"},
+};
+// clang-format on
+
+INSTANTIATE_TEST_SUITE_P(Catalogue, BadInput, ::testing::ValuesIn(kCases),
+                         [](const ::testing::TestParamInfo<BadInputCase>& info) { return std::string(info.param.id); });
+
+}  // namespace
