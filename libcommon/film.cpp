@@ -1,6 +1,7 @@
 #include "libcommon/film.h"
 
 #include <algorithm>
+#include <limits>
 
 namespace iris {
 
@@ -82,7 +83,10 @@ RGB Film::variance(int x, int y) const {
     for (int c = 0; c < 3; ++c) {
         double m = sum_wl[3 * i + c] / n, m2 = sum_wl2[3 * i + c] / n;
         double var_sample = std::max(0.0, (m2 - m * m) * n / (n - 1));
-        r[c] = float(var_sample / n / (mean_w * mean_w));
+        // Saturate at the largest float: samples near 1e20 (legal radiances) have squares beyond float's
+        // range, and an infinite variance would make the EXR writer refuse the whole image (found by
+        // tests/stress/test_extreme_radiance.cpp). The sums themselves are double and do not overflow.
+        r[c] = float(std::min(var_sample / n / (mean_w * mean_w), double(std::numeric_limits<float>::max())));
     }
     return r;
 }

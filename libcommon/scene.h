@@ -74,6 +74,9 @@ struct SurfaceHit {
     uint32_t bsdf = 0;
     int32_t light = -1;
     uint32_t geom = 0, prim = 0;
+    // Largest absolute coordinate of the primitive that was hit (its vertices; a sphere's centre plus
+    // radius): the scale of the rounding error in p, which offset_ray_origin must step over.
+    float magnitude = 0;
 };
 
 class Accel;  // Embree wrapper, defined in accel.h
@@ -113,15 +116,17 @@ struct Scene {
     float scale() const { return std::max(max_abs_component(bounds_min), max_abs_component(bounds_max)); }
 };
 
-// Moves p off its surface along the geometric normal ng, to the side of direction w, by an amount
-// relative to the magnitude of p's coordinates (Waechter & Binder 2019: integer ULP offsets), so that
-// rays leaving the surface never hit it again, at any scene scale.
-Vec3 offset_ray_origin(Vec3 p, Vec3 ng, Vec3 w);
+// Moves p off its surface along the geometric normal ng, to the side of direction w, by a few ULPs of
+// the magnitude of the coordinates p was computed from: max(|p|_inf, magnitude), where `magnitude` is
+// SurfaceHit::magnitude for a hit (0 = p's own coordinates only). Purely relative, so that rays
+// leaving the surface never hit it again and never start visibly off it, at any scene scale and
+// position (tests/stress/test_ray_offsets.cpp).
+Vec3 offset_ray_origin(Vec3 p, Vec3 ng, Vec3 w, float magnitude = 0.0f);
 
 // A ray leaving a surface hit in direction w.
 inline Ray spawn_ray(const SurfaceHit& h, Vec3 w) {
     Ray r;
-    r.o = offset_ray_origin(h.p, h.ng, w);
+    r.o = offset_ray_origin(h.p, h.ng, w, h.magnitude);
     r.d = w;
     return r;
 }

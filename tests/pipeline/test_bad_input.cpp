@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -81,11 +82,33 @@ void PrintTo(const BadInputCase& c, std::ostream* os) { *os << c.id; }
 
 class BadInput : public ::testing::TestWithParam<BadInputCase> {
 protected:
-    // Inputs shared by all cases, made once: valid stage files of the caustic test scene and of the
-    // furnace box (another scene), a valid image, and one defective file per kind of defect.
+    // Inputs shared by all cases: valid stage files of the caustic test scene and of the furnace box
+    // (another scene), a valid image, and one defective file per kind of defect. ctest runs every case
+    // in its own process, so they are made once per build of the tools, in the build tree: into a
+    // staging folder renamed into place when complete (a concurrent case that loses the race uses the
+    // winner's).
     static void SetUpTestSuite() {
-        dir_ = new TempDir;
-        auto in = [](const std::string& name) { return dir_->file(name); };
+        uint64_t stamp = 1469598103934665603ull;  // FNV-1a over the tools' modification times
+        for (const char* t : {"trace-photons", "place-caches", "fill-caches", "render", "compare-images", "inspect-caches"}) {
+            const auto ticks = uint64_t(fs::last_write_time(tool(t)).time_since_epoch().count());
+            stamp = (stamp ^ ticks) * 1099511628211ull;
+        }
+        const fs::path root = fs::path(IRIS_BIN_DIR).parent_path() / "test-inputs";
+        dir_ = root / ("bad-input-" + std::to_string(stamp));
+        if (fs::exists(dir_ / "complete")) return;
+        fs::create_directories(root);
+        char tmpl[4096];
+        std::snprintf(tmpl, sizeof tmpl, "%s/staging-XXXXXX", root.c_str());
+        const fs::path staging = ::mkdtemp(tmpl);
+        make_inputs(staging);
+        write_text(staging / "complete", "");
+        std::error_code ec;
+        fs::rename(staging, dir_, ec);
+        if (ec) fs::remove_all(staging);  // another process made them first
+        ASSERT_TRUE(fs::exists(dir_ / "complete"));
+    }
+    static void make_inputs(const fs::path& dir) {
+        auto in = [&](const std::string& name) { return (dir / name).string(); };
         auto run = [](const std::string& cmd) {
             ToolResult r = run_command(cmd);
             ASSERT_EQ(r.status, 0) << cmd << "\n" << r.output;
@@ -149,23 +172,22 @@ protected:
         write_text(in("empty.obj"), "# no faces\nv 0 0 0\n");
         fs::create_directory(in("adir"));
     }
-    static void TearDownTestSuite() {
-        delete dir_;
-        dir_ = nullptr;
-    }
-    static TempDir* dir_;
+    static fs::path dir_;
 };
-TempDir* BadInput::dir_ = nullptr;
+fs::path BadInput::dir_;
 
 TEST_P(BadInput, OneLineErrorNoOutput) {
     const BadInputCase& c = GetParam();
     TempDir out_dir;
     const std::string tool_name = c.tool;
-    const std::string ext = tool_name == "render" ? ".exr" : tool_name == "compare-images" ? ".png" : ".h5";
+    const std::string ext = tool_name == "render" || tool_name == "inspect-caches" ? ".exr"
+                            : tool_name == "compare-images"                      ? ".png"
+                                                                                 : ".h5";
     const std::string out = out_dir.file("out" + ext);
-    std::string args = replace_all(replace_all(c.args, "{in}", dir_->path.string()), "{out}", out);
-    const std::string cmd = tool(tool_name) + " " + args + (tool_name == "compare-images" ? "" : " -q");
-    const auto inputs_before = std::distance(fs::directory_iterator(dir_->path), fs::directory_iterator());
+    std::string args = replace_all(replace_all(c.args, "{in}", dir_.string()), "{out}", out);
+    const bool has_quiet = tool_name != "compare-images" && tool_name != "inspect-caches";
+    const std::string cmd = tool(tool_name) + " " + args + (has_quiet ? " -q" : "");
+    const auto inputs_before = std::distance(fs::directory_iterator(dir_), fs::directory_iterator());
     ToolResult r = run_command(cmd);
     SCOPED_TRACE(cmd);
 
@@ -179,12 +201,12 @@ TEST_P(BadInput, OneLineErrorNoOutput) {
     // Nothing written: the output folder stays empty (no output, no temporary file), and no input folder
     // gains a file either (an output path pointing there).
     EXPECT_TRUE(fs::is_empty(out_dir.path)) << "a file was left in the output folder";
-    EXPECT_EQ(std::distance(fs::directory_iterator(dir_->path), fs::directory_iterator()), inputs_before)
+    EXPECT_EQ(std::distance(fs::directory_iterator(dir_), fs::directory_iterator()), inputs_before)
         << "a file appeared among the inputs";
 
     if (const char* table = std::getenv("IRIS_ROBUSTNESS_TABLE")) {
         // Paths of this run's temporary folders become in/ and out/ so the table reads the same every time.
-        std::string shown = replace_all(replace_all(line, dir_->path.string() + "/", "in/"), out_dir.path.string() + "/", "out/");
+        std::string shown = replace_all(replace_all(line, dir_.string() + "/", "in/"), out_dir.path.string() + "/", "out/");
         shown = replace_all(shown, std::string(IRIS_SOURCE_DIR) + "/", "");
         shown = replace_all(shown, "|", "\\|");
         std::ofstream(table, std::ios::app) << "| `" << c.tool << "` | " << c.problem << " | `" << shown << "` |\n";
@@ -290,6 +312,19 @@ const BadInputCase kCases[] = {
     {"FillCachesCachesPlainHdf5", "fill-caches", "HDF5 file that is no stage file", "{in}/plain.h5 --photons {in}/photons.h5 -o {out}", "plain.h5"},
     {"FillCachesOutputDirMissing", "fill-caches", "output folder does not exist", "{in}/caches.h5 --photons {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
     {"FillCachesOutputIsDirectory", "fill-caches", "output path is a folder", "{in}/caches.h5 --photons {in}/photons.h5 -o {in}/adir", "directory"},
+
+    // ---- inspect-caches ----
+    {"InspectMissing", "inspect-caches", "stage file does not exist", "{in}/missing.h5", "missing.h5"},
+    {"InspectNotHdf5", "inspect-caches", "stage file is a text file", "{in}/text.h5", "not an HDF5 file"},
+    {"InspectPlainHdf5", "inspect-caches", "HDF5 file that is no stage file", "{in}/plain.h5", "plain.h5"},
+    {"InspectTruncated", "inspect-caches", "atlas cut off midway", "{in}/truncated_atlas.h5", "truncated_atlas.h5"},
+    {"InspectCacheOutOfRange", "inspect-caches", "--cache beyond the atlas", "{in}/atlas.h5 --cache 999999 -o {out}", "999999"},
+    {"InspectCacheOfPhotons", "inspect-caches", "--cache on a photon map", "{in}/photons.h5 --cache 0", "atlas"},
+    {"InspectPixelWithoutScene", "inspect-caches", "--pixel without --scene", "{in}/atlas.h5 --pixel 3,4", "--scene"},
+    {"InspectPixelOtherScene", "inspect-caches", "--scene other than the atlas's", "{in}/atlas.h5 --scene {in}/valid.xml --pixel 3,4", "another scene"},
+    {"InspectPixelOutside", "inspect-caches", "--pixel outside the image", "{in}/atlas.h5 --scene {in}/caustic.xml --pixel 999,4", "outside"},
+    {"InspectOutputWithoutCache", "inspect-caches", "-o without --cache or --pixel", "{in}/atlas.h5 -o {out}", "--cache"},
+    {"InspectBadLayout", "inspect-caches", "--layout that does not exist", "{in}/atlas.h5 --cache 0 --layout polar -o {out}", "--layout"},
 
     // ---- compare-images ----
     {"CompareTestMissing", "compare-images", "test image does not exist", "{in}/missing.exr {in}/image.exr -o {out}", "missing.exr"},

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <thread>
 
@@ -23,6 +24,18 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
     if (!(o.max_radius > 0)) throw std::runtime_error("--max-radius must be positive");
     if (!(o.filter_sigma >= 0)) throw std::runtime_error("--filter-sigma must be >= 0");
     if (!(o.floor > 0 && o.floor <= 1)) throw std::runtime_error("--floor must be in (0, 1]");
+    // The floor's texel probability f/N must be representable in the float CDF: near 1 its spacing is
+    // 2^-24, and texels whose probability falls below that get an empty CDF interval, i.e. density 0 --
+    // breaking "the density is >= f/(4 pi) everywhere" (formats/README.md) and, in nee+cache mode
+    // (no BSDF share), biasing the image (found by tests/stress/test_guiding_caches.cpp with f = 1e-6).
+    // Two ULPs per texel leave room for rounding.
+    const double min_floor = double(o.resolution) * double(o.resolution) * 0x1p-23;
+    if (o.floor < min_floor) {
+        char msg[160];
+        std::snprintf(msg, sizeof msg, "--floor %g is below what a float CDF of %dx%d texels can hold (at least %.3g)",
+                      o.floor, o.resolution, o.resolution, min_floor);
+        throw std::runtime_error(msg);
+    }
     auto t0 = std::chrono::steady_clock::now();
     int threads = o.threads > 0 ? o.threads : int(std::max(1u, std::thread::hardware_concurrency()));
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));

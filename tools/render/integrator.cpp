@@ -71,7 +71,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // Light sampling and its MIS density are evaluated from a point moved off the surface to the
         // side the path is on: on the surface of a sphere light itself, "inside" (sees all of it) and
         // "outside" (sees none of it) would otherwise be decided by rounding.
-        const Vec3 ref = offset_ray_origin(hit.p, hit.ng, wi_world);
+        const Vec3 ref = offset_ray_origin(hit.p, hit.ng, wi_world, hit.magnitude);
 
         // The cache serving this vertex, and the probability alpha of BSDF sampling in the one-sample
         // mixture p_mix = alpha p_bsdf + (1 - alpha) p_cache (DESIGN 4.3). alpha = 1: unguided.
@@ -102,7 +102,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 if (consistent_side(ls.wi, hit.ng, wo.z)) {
                     RGB f = bsdf_eval(bsdf, wi, wo);
                     if (!is_black(f)) {
-                        Vec3 from = offset_ray_origin(hit.p, hit.ng, ls.wi);
+                        Vec3 from = offset_ray_origin(hit.p, hit.ng, ls.wi, hit.magnitude);
                         bool blocked;
                         ++counters.rays;
                         if (std::isinf(ls.dist)) {
