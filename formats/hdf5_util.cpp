@@ -687,6 +687,15 @@ struct Reader::Impl {
                  ", expected " + want);
         }
         const size_t rows = size_t(dims[0]);
+        // Refuse a shape the file cannot hold before allocating memory for it: a damaged dimension
+        // (found by fuzzing) asked for 206 GB, which a machine that overcommits memory would try to
+        // zero-fill. Every value takes at least one byte and deflate packs at most 1032 bytes into
+        // one, so no dataset holds more than 1032 values per byte of the file. (In double: no overflow.)
+        hsize_t file_bytes = 0;
+        H5Fget_filesize(file.get(), &file_bytes);
+        if (double(rows) * double(cols ? cols : 1) > 1032.0 * double(file_bytes))
+            fail("dataset '" + std::string(name) + "' has " + std::to_string(dims[0]) +
+                 " rows, more than a file of " + std::to_string(file_bytes) + " bytes can hold");
         std::vector<T> out;
         try {
             out.resize(rows * (cols ? cols : 1));

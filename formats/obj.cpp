@@ -89,7 +89,9 @@ private:
             fail("bad " + std::string(what) + " index \"" + std::string(tok) + "\"");
         if (i == 0) fail(std::string(what) + " index 0 (OBJ indices start at 1)");
         if (i < 0) {
-            if (-i > int64_t(count))
+            // Compared as i < -count, not -i > count: negating INT64_MIN ("f -9223372036854775808 ...")
+            // overflows, undefined behaviour that UBSan reported.
+            if (i < -int64_t(count))
                 fail("relative " + std::string(what) + " index " + std::to_string(i) + " reaches before the first one");
             return int64_t(count) + i;
         }
