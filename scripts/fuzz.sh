@@ -140,7 +140,8 @@ fuzz_target() {
     [[ -n $n ]] || n=$(sed -E -n 's/^#([0-9]+).*/\1/p' <<<"$last")
     execs=$((execs + ${n:-0}))
     printf '%s round %d: rc %d, CPU %s s user + %s s sys; %s\n' "$t" "$round" "$rc" "$user" "$sys" "$last" | tee -a "$summary"
-    if ((rc != 0)); then
+    # In fork mode (keep-going targets) the exit status is that of the last crashing job: go on.
+    if ((rc != 0)) && [[ " $KEEP_GOING " != *" $t "* ]]; then
       status=1
       echo "$t: libFuzzer stopped with a finding (log: $log):" | tee -a "$summary"
       grep -E '^(==[0-9]+==ERROR|SUMMARY|.*runtime error|.*deadly signal|.*Test unit written)' "$log" | head -n 8 | tee -a "$summary"
