@@ -1130,6 +1130,9 @@ private:
                 center = m->point(center);
                 radius *= lx;
             }
+            // As for mesh vertices: a transform can push a valid sphere out of float range.
+            if (!is_finite(center) || !(radius > 0) || !std::isfinite(radius))
+                fail(src, p.line, "sphere centre or radius is not finite (or zero) after toWorld");
             s.center = center;
             s.radius = radius;
             s.bsdf = *bsdf;

@@ -106,6 +106,9 @@ protected:
         fs::rename(staging, dir_, ec);
         if (ec) fs::remove_all(staging);  // another process made them first
         ASSERT_TRUE(fs::exists(dir_ / "complete"));
+        // Inputs made for earlier builds of the tools are of no further use.
+        for (const auto& e : fs::directory_iterator(root, ec))
+            if (e.path() != dir_ && e.path().filename().string().rfind("bad-input-", 0) == 0) fs::remove_all(e.path(), ec);
     }
     static void make_inputs(const fs::path& dir) {
         auto in = [&](const std::string& name) { return (dir / name).string(); };
@@ -154,6 +157,8 @@ protected:
         write_text(in("bad_number.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"half\"/>"));
         write_text(in("nan_number.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"nan\"/>"));
         write_text(in("negative_radius.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"-1\"/>"));
+        write_text(in("huge_sphere.xml"),
+                   scene_with(sphere + "\n    <transform name=\"toWorld\"><scale value=\"1e38\"/></transform>"));
         write_text(in("bad_rgb.xml"),
                    scene_with(sphere + "\n    <bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5, 0.5\"/></bsdf>"));
         write_text(in("wrong_version.xml"),
@@ -225,6 +230,7 @@ const BadInputCase kCases[] = {
     {"SceneBadNumber", "render", "a number that is not one", "{in}/bad_number.xml -o {out}", "bad_number.xml"},
     {"SceneNanNumber", "render", "NaN as a parameter value", "{in}/nan_number.xml -o {out}", "nan_number.xml"},
     {"SceneNegativeRadius", "render", "negative sphere radius", "{in}/negative_radius.xml -o {out}", "radius"},
+    {"SceneSphereOverflows", "render", "sphere scaled past float range (radius 0.5 x 1e38)", "{in}/huge_sphere.xml -o {out}", "not finite"},
     {"SceneBadRgb", "render", "rgb value with two components", "{in}/bad_rgb.xml -o {out}", "bad_rgb.xml"},
     {"SceneWrongVersion", "render", "scene format version iris does not read", "{in}/wrong_version.xml -o {out}", "version"},
     {"SceneUnsetParameter", "render", "$r used but neither defined nor defaulted", "{in}/unset_parameter.xml -o {out}", "$r"},
