@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "formats/exr.h"
+#include "support/image_stats.h"
 #include "support/run_tool.h"
 
 namespace fs = std::filesystem;
@@ -13,30 +14,6 @@ using namespace iris::test;
 
 namespace {
 
-// Image mean per channel and its standard error, from the per-pixel variance layer.
-struct ChannelMean {
-    double mean[3] = {0, 0, 0}, stderr_[3] = {0, 0, 0};
-};
-
-ChannelMean image_mean(const Image& img) {
-    ChannelMean m;
-    const char* names[3] = {"R", "G", "B"};
-    const char* vnames[3] = {"variance.R", "variance.G", "variance.B"};
-    size_t n = size_t(img.width) * img.height;
-    for (int c = 0; c < 3; ++c) {
-        int ci = img.channel_index(names[c]), vi = img.channel_index(vnames[c]);
-        EXPECT_GE(ci, 0);
-        EXPECT_GE(vi, 0);
-        double s = 0, v = 0;
-        for (size_t i = 0; i < n; ++i) {
-            s += img.data[ci][i];
-            v += img.data[vi][i];
-        }
-        m.mean[c] = s / n;
-        m.stderr_[c] = std::sqrt(v) / n;  // pixels are independent under filter importance sampling
-    }
-    return m;
-}
 
 Image render_scene(const std::string& scene, const std::string& extra, const TempDir& dir) {
     std::string out = dir.file("out.exr");
@@ -47,10 +24,10 @@ Image render_scene(const std::string& scene, const std::string& extra, const Tem
 
 // |mean - expected| within 4.5 standard errors (one deterministic, seeded test per channel) plus a
 // small relative allowance for float rounding over long paths.
-void expect_mean(const ChannelMean& m, const double expected[3]) {
+void expect_mean(const ImageStats& m, const double expected[3]) {
     for (int c = 0; c < 3; ++c) {
-        double tol = 4.5 * m.stderr_[c] + 1e-4 * expected[c];
-        EXPECT_NEAR(m.mean[c], expected[c], tol) << "channel " << c << ", standard error " << m.stderr_[c];
+        double tol = 4.5 * m.se[c] + 1e-4 * expected[c];
+        EXPECT_NEAR(m.mean[c], expected[c], tol) << "channel " << c << ", standard error " << m.se[c];
     }
 }
 
@@ -60,28 +37,28 @@ TEST(RenderAnalytic, FurnaceSphereEmitsAndReflects) {
     TempDir dir;
     Image img = render_scene(data_file("render/furnace_sphere.xml"), "--spp 64 --seed 3", dir);
     const double expected[3] = {5, 5, 5};  // Le / (1 - rho) = 1 / 0.2
-    expect_mean(image_mean(img), expected);
+    expect_mean(image_stats(img), expected);
 }
 
 TEST(RenderAnalytic, FurnaceSphereParameterOverride) {
     TempDir dir;
     Image img = render_scene(data_file("render/furnace_sphere.xml"), "--spp 64 -D rho=0.5 -D Le=3", dir);
     const double expected[3] = {6, 6, 6};
-    expect_mean(image_mean(img), expected);
+    expect_mean(image_stats(img), expected);
 }
 
 TEST(RenderAnalytic, FurnaceBoxMesh) {
     TempDir dir;
     Image img = render_scene(data_file("render/furnace_box.xml"), "--spp 64", dir);
     const double expected[3] = {1 / 0.5, 2 / 0.75, 0.5 / 0.25};
-    expect_mean(image_mean(img), expected);
+    expect_mean(image_stats(img), expected);
 }
 
 TEST(RenderAnalytic, SphereLightOverPlane) {
     TempDir dir;
     Image img = render_scene(data_file("render/sphere_light_over_plane.xml"), "--spp 256", dir);
     const double expected[3] = {0.3125, 0.3125, 0.3125};
-    expect_mean(image_mean(img), expected);
+    expect_mean(image_stats(img), expected);
 }
 
 TEST(RenderCli, SameSeedSameImageForAnyThreadCount) {

@@ -15,6 +15,7 @@
 
 #include "formats/exr.h"
 #include "formats/photon_map.h"
+#include "support/image_stats.h"
 #include "support/run_tool.h"
 
 using namespace iris;
@@ -22,32 +23,10 @@ using namespace iris::test;
 
 namespace {
 
-struct Stats {
-    double mean[3] = {0, 0, 0}, se[3] = {0, 0, 0};
-};
-
-Stats image_stats(const Image& img, const std::string& what) {
-    Stats s;
-    EXPECT_EQ(img.metadata.at("iris:nonfinite_samples"), "0") << what;
-    const char* names[3] = {"R", "G", "B"};
-    const char* vnames[3] = {"variance.R", "variance.G", "variance.B"};
-    const size_t n = size_t(img.width) * img.height;
-    for (int c = 0; c < 3; ++c) {
-        const int ci = img.channel_index(names[c]), vi = img.channel_index(vnames[c]);
-        if (ci < 0 || vi < 0) {
-            ADD_FAILURE() << what << ": missing channel";
-            continue;
-        }
-        double sum = 0, var = 0;
-        for (size_t i = 0; i < n; ++i) {
-            EXPECT_TRUE(std::isfinite(img.data[ci][i]) && std::isfinite(img.data[vi][i])) << what << " pixel " << i;
-            sum += img.data[ci][i];
-            var += img.data[vi][i];
-        }
-        s.mean[c] = sum / double(n);
-        s.se[c] = std::sqrt(var) / double(n);
-    }
-    return s;
+// The mean and standard error (support/image_stats.h), after checking no NaN/Inf sample was discarded.
+ImageStats checked_stats(const Image& img, const std::string& what) {
+    expect_no_nonfinite(img, what);
+    return image_stats(img, what);
 }
 
 // The box's walls (inward), a light under the ceiling, a glass sphere. With `dirty`, every OBJ also
@@ -123,7 +102,7 @@ TEST(DegenerateGeometry, RendersLikeTheCleanScene) {
     r = run_command(tool("render") + " " + dirty + " -o " + dir.file("d.exr") + " --variance -q -t 2 --spp 128 --seed 2");
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_NE(r.output.find("degenerate"), std::string::npos) << "the loader reports what it dropped: " << r.output;
-    const Stats a = image_stats(read_exr(dir.file("c.exr")), "clean"), b = image_stats(read_exr(dir.file("d.exr")), "dirty");
+    const ImageStats a = checked_stats(read_exr(dir.file("c.exr")), "clean"), b = checked_stats(read_exr(dir.file("d.exr")), "dirty");
     ASSERT_GT(a.mean[0], 0.05);
     for (int c = 0; c < 3; ++c) {
         const double se = std::hypot(a.se[c], b.se[c]);
@@ -152,7 +131,7 @@ TEST(DegenerateGeometry, PhotonTracingAndGuidedRenderStayFinite) {
     ASSERT_EQ(r.status, 0) << r.output;
     r = run_command(tool("render") + " " + scene + " --atlas " + at + " -o " + dir.file("g.exr") + " --variance -q -t 2 --spp 16");
     ASSERT_EQ(r.status, 0) << r.output;
-    image_stats(read_exr(dir.file("g.exr")), "guided");
+    checked_stats(read_exr(dir.file("g.exr")), "guided");
 }
 
 // An emitter mesh with no triangle of non-zero area: a one-line error naming the mesh, no image.

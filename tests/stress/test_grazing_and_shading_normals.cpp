@@ -18,6 +18,7 @@
 
 #include "formats/exr.h"
 #include "libcommon/rng.h"
+#include "support/image_stats.h"
 #include "support/run_tool.h"
 
 using namespace iris;
@@ -25,34 +26,15 @@ using namespace iris::test;
 
 namespace {
 
-struct Stats {
-    double mean[3] = {0, 0, 0}, se[3] = {0, 0, 0};
-};
-
-Stats render_stats(const std::string& scene, const std::string& args, const TempDir& dir, const std::string& what) {
-    Stats s;
+// Renders `scene` with --variance; its mean and standard error, after the no-NaN/Inf checks.
+ImageStats render_stats(const std::string& scene, const std::string& args, const TempDir& dir, const std::string& what) {
     const std::string out = dir.file("out.exr");
     ToolResult r = run_command(tool("render") + " " + scene + " -o " + out + " --variance -q -t 2 " + args);
     EXPECT_EQ(r.status, 0) << what << ": " << r.output;
-    if (r.status != 0) return s;
+    if (r.status != 0) return {};
     const Image img = read_exr(out);
-    EXPECT_EQ(img.metadata.at("iris:nonfinite_samples"), "0") << what;
-    const char* names[3] = {"R", "G", "B"};
-    const char* vnames[3] = {"variance.R", "variance.G", "variance.B"};
-    const size_t n = size_t(img.width) * img.height;
-    for (int c = 0; c < 3; ++c) {
-        const int ci = img.channel_index(names[c]), vi = img.channel_index(vnames[c]);
-        double sum = 0, var = 0;
-        for (size_t i = 0; i < n; ++i) {
-            EXPECT_TRUE(std::isfinite(img.data[ci][i]) && img.data[ci][i] >= 0 && std::isfinite(img.data[vi][i]))
-                << what << " pixel " << i;
-            sum += img.data[ci][i];
-            var += img.data[vi][i];
-        }
-        s.mean[c] = sum / double(n);
-        s.se[c] = std::sqrt(var) / double(n);
-    }
-    return s;
+    expect_no_nonfinite(img, what);
+    return image_stats(img, what);
 }
 
 }  // namespace
@@ -180,11 +162,11 @@ std::string furnace_scene(const TempDir& dir, const std::string& tag, double til
 // no NaN/Inf sample, and between Le = 1 and 2.
 TEST(ShadingNormals, PerturbedNormalsNeverCreateEnergyInAFurnace) {
     TempDir dir;
-    const Stats truth = render_stats(furnace_scene(dir, "true", -1), "--spp 64 --seed 2", dir, "true normals");
+    const ImageStats truth = render_stats(furnace_scene(dir, "true", -1), "--spp 64 --seed 2", dir, "true normals");
     for (int c = 0; c < 3; ++c) EXPECT_NEAR(truth.mean[c], 2.0, 5 * truth.se[c] + 1e-4) << "true normals";
     for (double tilt : {60.0, 89.0}) {
         const std::string what = "tilt " + std::to_string(int(tilt));
-        const Stats s = render_stats(furnace_scene(dir, "tilt" + std::to_string(int(tilt)), tilt), "--spp 64 --seed 3",
+        const ImageStats s = render_stats(furnace_scene(dir, "tilt" + std::to_string(int(tilt)), tilt), "--spp 64 --seed 3",
                                      dir, what);
         for (int c = 0; c < 3; ++c) {
             EXPECT_LE(s.mean[c], 2.0 * (1 + 1e-4) + 5 * s.se[c]) << what << ": shading normals created energy";

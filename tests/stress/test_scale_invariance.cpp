@@ -19,6 +19,7 @@
 
 #include "formats/cache_atlas.h"
 #include "formats/exr.h"
+#include "support/image_stats.h"
 #include "support/run_tool.h"
 
 using namespace iris;
@@ -26,45 +27,10 @@ using namespace iris::test;
 
 namespace {
 
-// ---- helpers (each stress file keeps its own: the tier is a set of independent files) ----
-
-struct Stats {
-    double mean[3] = {0, 0, 0}, se[3] = {0, 0, 0};
-};
-
-// Per-channel image mean and its standard error from the variance layer (pixels are independent under
-// filter importance sampling). Also checks that every value is finite.
-Stats image_stats(const Image& img) {
-    Stats s;
-    const char* names[3] = {"R", "G", "B"};
-    const char* vnames[3] = {"variance.R", "variance.G", "variance.B"};
-    const size_t n = size_t(img.width) * img.height;
-    for (int c = 0; c < 3; ++c) {
-        const int ci = img.channel_index(names[c]), vi = img.channel_index(vnames[c]);
-        EXPECT_GE(ci, 0);
-        EXPECT_GE(vi, 0);
-        if (ci < 0 || vi < 0) continue;
-        double sum = 0, var = 0;
-        for (size_t i = 0; i < n; ++i) {
-            EXPECT_TRUE(std::isfinite(img.data[ci][i]) && std::isfinite(img.data[vi][i])) << "pixel " << i;
-            EXPECT_GE(img.data[vi][i], 0.0f);
-            sum += img.data[ci][i];
-            var += img.data[vi][i];
-        }
-        s.mean[c] = sum / double(n);
-        s.se[c] = std::sqrt(var) / double(n);
-    }
-    return s;
-}
-
-void expect_no_nonfinite(const Image& img, const std::string& what) {
-    auto it = img.metadata.find("iris:nonfinite_samples");
-    ASSERT_NE(it, img.metadata.end()) << what;
-    EXPECT_EQ(it->second, "0") << what << ": NaN/Inf samples reached the film";
-}
+// ---- helpers (image statistics: support/image_stats.h) ----
 
 // Means agree within 5 combined standard errors per channel (plus float-rounding slack).
-void expect_same_mean(const Stats& a, const Stats& b, const std::string& what) {
+void expect_same_mean(const ImageStats& a, const ImageStats& b, const std::string& what) {
     for (int c = 0; c < 3; ++c) {
         const double se = std::sqrt(a.se[c] * a.se[c] + b.se[c] * b.se[c]);
         EXPECT_NEAR(a.mean[c], b.mean[c], 5 * se + 1e-5 * std::abs(b.mean[c]))
@@ -170,7 +136,7 @@ TEST(ScaleInvariance, UnguidedRenderIndependentOfScaleAndPosition) {
     Image ref_img = run_render(write_scene(dir, "unit_", 1, 0) + common, dir.file("unit.exr"));
     ASSERT_GT(ref_img.width, 0);
     expect_no_nonfinite(ref_img, "s=1");
-    const Stats ref = image_stats(ref_img);
+    const ImageStats ref = image_stats(ref_img);
     ASSERT_GT(ref.mean[0], 0.05) << "the reference scene must be lit";
     for (const Variant& v : kVariants) {
         const std::string tag = std::string("v") + std::to_string(&v - kVariants) + "_";
@@ -187,7 +153,7 @@ TEST(ScaleInvariance, GuidedPipelineIndependentOfScaleAndPosition) {
     const std::string common = " --spp " + std::to_string(kSpp) + " --seed 11";
     Image ref_img = run_render(write_scene(dir, "unit_", 1, 0) + common, dir.file("unit.exr"));
     ASSERT_GT(ref_img.width, 0);
-    const Stats ref = image_stats(ref_img);
+    const ImageStats ref = image_stats(ref_img);
     const Variant guided_variants[] = {{"s=1", 1, 0}, {"s=1e-3", 1e-3, 0}, {"s=1e4", 1e4, 0}, {"s=1e-3,shift=1e4", 1e-3, 1e4}};
     for (const Variant& v : guided_variants) {
         const std::string tag = std::string("g") + std::to_string(&v - guided_variants) + "_";
