@@ -263,6 +263,16 @@ public:
     // on the direction after a to_world/to_local round trip can land in the neighbour texel when the
     // sample lies within rounding of a texel edge.
     static inline Vec3 sample(const float* cdf, const float* pdf, int resolution, Vec2 u, float* pdf_out);
+    // The same direction (bit for bit) found by a two-level search: first in row_cdf[j] = cdf[j R + R - 1]
+    // (the cdf at the end of each row, R floats, kept beside the table by the caller), then inside that
+    // row; it touches two cache lines of an uncached table instead of ~log2(N) - 4. Instead of a
+    // density it reports the texel whose density applies (the one sample() would read pdf[] at), for
+    // callers that derive the density from the cdf (texel_pdf).
+    static inline Vec3 sample_by_rows(const float* cdf, const float* row_cdf, int resolution, Vec2 u, int* texel);
+    // Density per steradian of texel k from the cdf alone: exactly the pdf[k] that build() writes.
+    static inline float texel_pdf(const float* cdf, int resolution, int k) {
+        return (cdf[k] - (k > 0 ? cdf[k - 1] : 0.0f)) * (float(resolution * resolution) * kInv4Pi);
+    }
     // Density per steradian of direction w (unit, local frame): pdf[texel of w].
     static inline float pdf(const float* pdf_table, int resolution, Vec3 w) {
         return pdf_table[sphere_texel_of(w, resolution)];
@@ -291,6 +301,10 @@ public:
     static inline int search_cdf(const float* cdf, int n, float u);
 
 private:
+    // The direction of u inside texel k (chosen for ux), with its density; shared by both searches.
+    // Sets *density_texel to the texel whose density applies to the direction (k, or its neighbour
+    // when rounding moved a point near the edge across it).
+    static inline Vec3 sample_texel(const float* cdf, int R, int k, float ux, float uy, int* density_texel);
     int R_ = 0;
     std::vector<float> cdf_, pdf_;
 };
@@ -314,24 +328,39 @@ inline int SphereDistribution::search_cdf(const float* cdf, int n, float u) {
 
 inline Vec3 SphereDistribution::sample(const float* cdf, const float* pdf, int R, Vec2 u, float* pdf_out) {
     constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
-    const int n = R * R;
     // u in [0, 1); the negated comparisons also send NaN to 0.
     const float ux = !(u.x >= 0.0f) ? 0.0f : std::min(u.x, kOneMinusEpsilon);
     const float uy = !(u.y >= 0.0f) ? 0.0f : std::min(u.y, kOneMinusEpsilon);
-    const int k = search_cdf(cdf, n, ux);
+    int texel;
+    const Vec3 w = sample_texel(cdf, R, search_cdf(cdf, R * R, ux), ux, uy, &texel);
+    if (pdf_out) *pdf_out = pdf[texel];
+    return w;
+}
+
+inline Vec3 SphereDistribution::sample_by_rows(const float* cdf, const float* row_cdf, int R, Vec2 u, int* texel) {
+    constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
+    const float ux = !(u.x >= 0.0f) ? 0.0f : std::min(u.x, kOneMinusEpsilon);
+    const float uy = !(u.y >= 0.0f) ? 0.0f : std::min(u.y, kOneMinusEpsilon);
+    // The first row whose last cdf value exceeds ux holds the first texel whose cdf exceeds ux (the cdf
+    // is non-decreasing and ends at 1 > ux): the same k as search_cdf over the whole table.
+    const int j = search_cdf(row_cdf, R, ux);
+    const int k = j * R + search_cdf(cdf + size_t(j) * size_t(R), R, ux);
+    return sample_texel(cdf, R, k, ux, uy, texel);
+}
+
+inline Vec3 SphereDistribution::sample_texel(const float* cdf, int R, int k, float ux, float uy, int* density_texel) {
+    constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
     const float lo = k > 0 ? cdf[k - 1] : 0.0f;
     // ux rescaled to [0, 1) inside the texel's interval: uniform and independent of k.
     const float fx = clamp((ux - lo) / (cdf[k] - lo), 0.0f, kOneMinusEpsilon);
     const int i = k % R, j = k / R;
     const float inv_r = 1.0f / float(R);
     const Vec3 w = square_to_sphere({(float(i) + fx) * inv_r, (float(j) + uy) * inv_r});
-    if (pdf_out) {
-        // Equal-area map: the density is constant inside texel k. Within kEdgeMargin of the texel's
-        // edges, rounding may put w's preimage in the neighbour texel; use exactly what pdf(w) uses.
-        const float m = kEdgeMargin * float(R);  // the margin in texel units
-        const bool near_edge = fx < m || fx > 1.0f - m || uy < m || uy > 1.0f - m;
-        *pdf_out = pdf[near_edge ? sphere_texel_of(w, R) : k];
-    }
+    // Equal-area map: the density is constant inside texel k. Within kEdgeMargin of the texel's edges,
+    // rounding may put w's preimage in the neighbour texel; use exactly the texel pdf(w) uses.
+    const float m = kEdgeMargin * float(R);  // the margin in texel units
+    const bool near_edge = fx < m || fx > 1.0f - m || uy < m || uy > 1.0f - m;
+    *density_texel = near_edge ? sphere_texel_of(w, R) : k;
     return w;
 }
 

@@ -5,7 +5,9 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 #include <filesystem>
 #include <map>
@@ -54,6 +56,16 @@ inline void parse_resolution(const std::string& s, int* width, int* height) {
     char tail = 0;
     if (std::sscanf(s.c_str(), "%dx%d%c", width, height, &tail) != 2 || *width <= 0 || *height <= 0)
         throw std::runtime_error("--resolution must be WxH with positive integers, got \"" + s + "\"");
+}
+
+// A whole string as a finite float (for options that also take a word, like --bsdf-fraction auto);
+// throws naming the option otherwise.
+inline float parse_float_option(const char* option, const std::string& s) {
+    char* end = nullptr;
+    const float v = std::strtof(s.c_str(), &end);
+    if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v))
+        throw std::runtime_error(std::string(option) + " expects a number, got \"" + s + "\"");
+    return v;
 }
 
 // "-D name=value" options into a parameter map (for $name in scene files).

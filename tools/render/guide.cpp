@@ -1,12 +1,16 @@
 #include "tools/render/guide.h"
 
+#include <sys/mman.h>
+
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <stdexcept>
 
+#include "libcommon/bsdf_fraction.h"
 #include "libcommon/rng.h"
-
 #include "libcommon/spheremap.h"
+#include "libcommon/point_tree.h"
 
 namespace iris {
 
@@ -34,100 +38,164 @@ namespace {
 constexpr float kLookupSlack = 1.5f;
 // Normal agreement between cache and vertex (cos 45 degrees).
 constexpr float kLookupNormalCos = 0.7071f;
+// Caches the tree fallback looks at (nearest first) where no cache of the vertex's cell serves it.
 constexpr uint32_t kLookupCandidates = 4;
 }  // namespace
 
-Guide::Guide(CacheAtlas atlas, float bsdf_fraction) : atlas_(std::move(atlas)), alpha_(bsdf_fraction) {
-    if (!(bsdf_fraction >= 0 && bsdf_fraction < 1)) throw std::runtime_error("--bsdf-fraction must be in [0, 1)");
-    frames_.reserve(atlas_.size());
-    for (size_t c = 0; c < atlas_.size(); ++c) {
-        frames_.emplace_back(atlas_.normal[c]);
-        if (!atlas_.usable[c]) continue;
-        usable_positions_.push_back(atlas_.position[c]);
-        usable_ids_.push_back(uint32_t(c));
-        float r = atlas_.radius[c] * kLookupSlack;
-        lookup_radius2_.push_back(r * r);
-    }
-    tree_ = std::make_unique<PointTree>(usable_positions_);
-    build_grid();
+// 2 MiB-aligned (the huge page size on x86-64) and advised for transparent huge pages.
+std::unique_ptr<float[], Guide::FreeTable> Guide::allocate_table(size_t floats) {
+    constexpr size_t kHuge = size_t(2) << 20;
+    const size_t bytes = (floats * sizeof(float) + kHuge - 1) / kHuge * kHuge;
+    void* p = std::aligned_alloc(kHuge, bytes);
+    if (!p) throw std::bad_alloc();
+    madvise(p, bytes, MADV_HUGEPAGE);  // advice only: without it the table is still correct
+    return std::unique_ptr<float[], FreeTable>(static_cast<float*>(p));
 }
 
-void Guide::build_grid() {
-    const size_t n = usable_positions_.size();
-    if (n < 2) return;
-    // Cell size: twice the typical spacing between neighbouring caches (median over a sample of
-    // nearest-neighbour distances), so a cell on a surface holds a handful of caches.
+void Guide::FreeTable::operator()(float* p) const { std::free(p); }
+
+Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas)) {
+    const bool adaptive = o.bsdf_fraction < 0;
+    if (!adaptive && !(o.bsdf_fraction < 1)) throw std::runtime_error("--bsdf-fraction must be in [0, 1)");
+    if (!(o.min_gain >= 1) || !std::isfinite(o.min_gain)) throw std::runtime_error("--min-gain must be >= 1");
+    const size_t n = atlas_.size();
+    const int R = atlas_.resolution;
+    frames_.reserve(n);
+    alpha_.assign(n, 1.0f);
+    const size_t N = atlas_.texels();
+    cdf_offset_ = (size_t(R) + 15) / 16 * 16;
+    stride_ = (cdf_offset_ + N + 15) / 16 * 16;
+    per_sr_ = float(N) * kInv4Pi;
+    table_ = allocate_table(std::max<size_t>(1, n * stride_));
+    std::vector<uint32_t> guiding;
+    summary_.caches = n;
+    double sum_alpha = 0;
+    // At least 0.2: the map is an estimate from a few hundred photons gathered over a disc, so BSDF
+    // sampling keeps a share that bounds the weight where the map is wrong (defensive sampling).
+    const BsdfFractionChooser chooser(std::max(R, 1), std::min(atlas_.floor, 0.999), 0.2f);
+    for (size_t c = 0; c < n; ++c) {
+        frames_.emplace_back(atlas_.normal[c]);
+        float* block = table_.get() + c * stride_;
+        const float* cdf = atlas_.cdf_row(c);
+        std::copy(cdf, cdf + N, block + cdf_offset_);
+        for (int j = 0; j < R; ++j) block[j] = cdf[size_t(j) * size_t(R) + size_t(R - 1)];
+        if (!atlas_.usable[c]) continue;
+        ++summary_.usable;
+        float alpha = o.bsdf_fraction;
+        if (adaptive) {
+            const BsdfFractionChoice choice = chooser.choose(atlas_.pdf_row(c));
+            if (choice.gain < o.min_gain) continue;
+            alpha = choice.alpha;
+        }
+        alpha_[c] = alpha;
+        sum_alpha += alpha;
+        guiding.push_back(uint32_t(c));
+    }
+    // The maps now live in table_.
+    atlas_.pdf = {};
+    atlas_.cdf = {};
+    summary_.guiding = guiding.size();
+    summary_.mean_alpha = guiding.empty() ? 1.0 : sum_alpha / double(guiding.size());
+    build_grid(guiding);
+}
+
+void Guide::build_grid(const std::vector<uint32_t>& guiding) {
+    if (guiding.empty()) return;
+    positions_.clear();
+    for (uint32_t c : guiding) positions_.push_back(atlas_.position[c]);
+    guiding_ids_ = guiding;
+    tree_ = std::make_unique<PointTree>(positions_);
+    // Caches overlap heavily (serving radii are many spacings wide), so cells are sized by the spacing:
+    // twice the median distance between neighbouring caches (over a sample), a handful of caches each.
     std::vector<float> spacing;
-    const size_t step = std::max<size_t>(1, n / 2000);
+    const size_t n = positions_.size(), step = std::max<size_t>(1, n / 2000);
     for (size_t i = 0; i < n; i += step) {
         uint32_t idx[2];
         float d2[2];
-        if (tree_->nearest(usable_positions_[i], 2, kInf, idx, d2) == 2 && d2[1] > 0) spacing.push_back(std::sqrt(d2[1]));
+        if (tree_->nearest(positions_[i], 2, kInf, idx, d2) == 2 && d2[1] > 0) spacing.push_back(std::sqrt(d2[1]));
     }
-    if (spacing.empty()) return;
-    std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
-    cell_size_ = 2.0f * spacing[spacing.size() / 2];
-    if (!(cell_size_ > 0) || !std::isfinite(cell_size_)) return;
-    inv_cell_ = 1.0f / cell_size_;
+    float cell = 1.0f;
+    if (!spacing.empty()) {
+        std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
+        cell = 2.0f * spacing[spacing.size() / 2];
+    }
+    if (!(cell > 0) || !std::isfinite(cell)) cell = 1.0f;
+    inv_cell_ = 1.0f / cell;
+    // Each cache is listed in every cell within half a cell of it, so a cell's list holds every cache
+    // closer than half a cell to any of its points: the nearest cache is almost always among them.
+    const float reach = 0.5f * cell;
     grid_origin_ = Vec3(kInf);
-    for (Vec3 p : usable_positions_) grid_origin_ = vmin(grid_origin_, p);
-    std::vector<std::pair<uint64_t, uint32_t>> keyed(n);
-    for (size_t i = 0; i < n; ++i) keyed[i] = {cell_key(usable_positions_[i]), uint32_t(i)};
-    std::sort(keyed.begin(), keyed.end());
+    for (Vec3 p : positions_) grid_origin_ = vmin(grid_origin_, p - Vec3(reach));
+    std::vector<std::pair<uint64_t, uint32_t>> listed;
+    listed.reserve(4 * n);
+    for (size_t i = 0; i < n; ++i) {
+        const Vec3 lo = (positions_[i] - Vec3(reach) - grid_origin_) * inv_cell_;
+        const Vec3 hi = (positions_[i] + Vec3(reach) - grid_origin_) * inv_cell_;
+        for (int64_t z = int64_t(std::floor(lo.z)); z <= int64_t(std::floor(hi.z)); ++z)
+            for (int64_t y = int64_t(std::floor(lo.y)); y <= int64_t(std::floor(hi.y)); ++y)
+                for (int64_t x = int64_t(std::floor(lo.x)); x <= int64_t(std::floor(hi.x)); ++x)
+                    listed.push_back({cell_key(x, y, z), uint32_t(i)});
+    }
+    std::sort(listed.begin(), listed.end());
     size_t cells = 0;
-    for (size_t i = 0; i < n; ++i) cells += (i == 0 || keyed[i].first != keyed[i - 1].first);
+    for (size_t i = 0; i < listed.size(); ++i) cells += (i == 0 || listed[i].first != listed[i - 1].first);
     size_t cap = 16;
     while (cap < 2 * cells) cap *= 2;
-    slot_key_.assign(cap, ~0ull);
-    slot_begin_.assign(cap, 0);
-    slot_end_.assign(cap, 0);
-    entries_.reserve(n);
-    for (size_t i = 0; i < n;) {
-        size_t j = i;
-        uint64_t key = keyed[i].first;
-        uint32_t begin = uint32_t(entries_.size());
-        for (; j < n && keyed[j].first == key; ++j) {
-            uint32_t u = keyed[j].second, c = usable_ids_[u];
-            entries_.push_back({usable_positions_[u], atlas_.normal[c], lookup_radius2_[u], c});
+    slots_.assign(cap, Slot{});
+    entries_.clear();
+    entries_.reserve(listed.size());
+    for (size_t i = 0; i < listed.size();) {
+        const uint64_t key = listed[i].first;
+        Slot s;
+        s.key = key;
+        s.begin = uint32_t(entries_.size());
+        for (; i < listed.size() && listed[i].first == key; ++i) {
+            const uint32_t c = guiding[listed[i].second];
+            const float r = atlas_.radius[c] * kLookupSlack;
+            entries_.push_back({atlas_.position[c], r * r, atlas_.normal[c], c});
         }
+        s.end = uint32_t(entries_.size());
         size_t slot = mix64(key) & (cap - 1);
-        while (slot_key_[slot] != ~0ull) slot = (slot + 1) & (cap - 1);
-        slot_key_[slot] = key;
-        slot_begin_[slot] = begin;
-        slot_end_[slot] = uint32_t(entries_.size());
-        i = j;
+        while (slots_[slot].key != ~0ull) slot = (slot + 1) & (cap - 1);
+        slots_[slot] = s;
     }
 }
 
-uint64_t Guide::cell_key(Vec3 p) const {
-    // 21 bits per axis; cells far outside the caches' extent alias harmlessly (the scan re-tests).
-    Vec3 q = (p - grid_origin_) * inv_cell_;
-    auto axis = [](float v) { return uint64_t(int64_t(std::floor(v)) & 0x1fffff); };
-    return axis(q.x) | (axis(q.y) << 21) | (axis(q.z) << 42);
+uint64_t Guide::cell_key(int64_t x, int64_t y, int64_t z) const {
+    // 21 bits per axis; cells more than 2^21 apart alias harmlessly (the scan re-tests the distance).
+    return uint64_t(x & 0x1fffff) | (uint64_t(y & 0x1fffff) << 21) | (uint64_t(z & 0x1fffff) << 42);
 }
 
 int Guide::lookup(Vec3 p, Vec3 n_side) const {
-    if (usable_positions_.empty()) return -1;
+    if (slots_.empty() || !is_finite(p)) return -1;
     int c = lookup_grid(p, n_side);
     if (c < 0) c = lookup_tree(p, n_side);
-    if (c >= 0) prefetch(c);
+    if (c >= 0) {
+        // Sampling reads the row ends first, then one row of the cdf: start loading the former now,
+        // while the vertex's shadow ray is traced.
+        const size_t R = size_t(atlas_.resolution);
+        const char* rows = reinterpret_cast<const char*>(row_cdf(c));
+        for (size_t off = 0; off < R * sizeof(float); off += 64) __builtin_prefetch(rows + off);
+        __builtin_prefetch(&frames_[size_t(c)]);
+    }
     return c;
 }
 
 int Guide::lookup_grid(Vec3 p, Vec3 n_side) const {
-    if (slot_key_.empty() || !is_finite(p)) return -1;
-    const uint64_t key = cell_key(p);
-    const size_t mask = slot_key_.size() - 1;
+    const Vec3 q = (p - grid_origin_) * inv_cell_;
+    // Far outside the grid (or beyond int64): left to the tree.
+    if (!(std::abs(q.x) < 1e15f && std::abs(q.y) < 1e15f && std::abs(q.z) < 1e15f)) return -1;
+    const uint64_t key = cell_key(int64_t(std::floor(q.x)), int64_t(std::floor(q.y)), int64_t(std::floor(q.z)));
+    const size_t mask = slots_.size() - 1;
     for (size_t slot = mix64(key) & mask;; slot = (slot + 1) & mask) {
-        uint64_t k = slot_key_[slot];
-        if (k == ~0ull) return -1;
-        if (k != key) continue;
-        // The nearest cache inside the cell that may serve this vertex.
+        const Slot& s = slots_[slot];
+        if (s.key == ~0ull) return -1;
+        if (s.key != key) continue;
         int best = -1;
         float best_d2 = kInf;
-        for (uint32_t e = slot_begin_[slot]; e < slot_end_[slot]; ++e) {
+        for (uint32_t e = s.begin; e < s.end; ++e) {
             const GridEntry& g = entries_[e];
-            float d2 = length_sq(g.position - p);
+            const float d2 = length_sq(g.position - p);
             if (d2 < best_d2 && d2 <= g.radius2 && dot(g.normal, n_side) >= kLookupNormalCos) {
                 best_d2 = d2;
                 best = int(g.cache);
@@ -140,40 +208,27 @@ int Guide::lookup_grid(Vec3 p, Vec3 n_side) const {
 int Guide::lookup_tree(Vec3 p, Vec3 n_side) const {
     uint32_t idx[kLookupCandidates];
     float d2[kLookupCandidates];
-    // Fast path: the nearest cache usually serves (a 1-nearest search costs a fraction of a 4-nearest
-    // one); only at creases and thin walls, where it faces another way, look at a few more.
-    uint32_t n = tree_->nearest(p, 1, kInf, idx, d2);
-    for (int pass = 0; pass < 2; ++pass) {
-        for (uint32_t i = 0; i < n; ++i) {
-            if (d2[i] > lookup_radius2_[idx[i]]) continue;
-            uint32_t c = usable_ids_[idx[i]];
-            if (dot(atlas_.normal[c], n_side) < kLookupNormalCos) continue;
-            return int(c);
-        }
-        if (pass == 0) n = tree_->nearest(p, kLookupCandidates, kInf, idx, d2);
+    const uint32_t n = tree_->nearest(p, kLookupCandidates, kInf, idx, d2);
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t c = guiding_ids_[idx[i]];
+        const float r = atlas_.radius[c] * kLookupSlack;
+        if (d2[i] <= r * r && dot(atlas_.normal[c], n_side) >= kLookupNormalCos) return int(c);
     }
     return -1;
 }
 
-void Guide::prefetch(int c) const {
-    // The atlas is tens of MB and caches are visited in random order: start loading the CDF row now,
-    // while the vertex's shadow ray is traced, so that sampling finds it in cache.
-    const char* cdf = reinterpret_cast<const char*>(atlas_.cdf_row(size_t(c)));
-    const char* pdf = reinterpret_cast<const char*>(atlas_.pdf_row(size_t(c)));
-    const size_t bytes = atlas_.texels() * sizeof(float);
-    for (size_t off = 0; off < bytes; off += 64) {
-        __builtin_prefetch(cdf + off);
-        __builtin_prefetch(pdf + off);
-    }
+Vec3 Guide::sample(int c, Vec2 u, float* pdf) const {
+    int k;
+    const Vec3 local = SphereDistribution::sample_by_rows(cdf_row(c), row_cdf(c), atlas_.resolution, u, &k);
+    if (pdf) *pdf = texel_pdf(c, k);
+    return frames_[size_t(c)].to_world(local);
 }
 
-Vec3 Guide::sample_local(int c, Vec2 u, float* pdf) const {
-    return SphereDistribution::sample(atlas_.cdf_row(size_t(c)), atlas_.pdf_row(size_t(c)), atlas_.resolution, u, pdf);
-}
-
-float Guide::pdf(int c, Vec3 w) const {
-    Vec3 local = frames_[size_t(c)].to_local(w);
-    return SphereDistribution::pdf(atlas_.pdf_row(size_t(c)), atlas_.resolution, local);
+void Guide::prefetch_sample(int c, Vec2 u) const {
+    const int R = atlas_.resolution;
+    const int j = SphereDistribution::search_cdf(row_cdf(c), R, std::min(std::max(u.x, 0.0f), 0x1.fffffep-1f));
+    const char* row = reinterpret_cast<const char*>(cdf_row(c) + size_t(j) * size_t(R));
+    for (size_t off = 0; off < size_t(R) * sizeof(float); off += 64) __builtin_prefetch(row + off);
 }
 
 }  // namespace iris

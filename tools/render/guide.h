@@ -13,6 +13,7 @@
 #include "formats/cache_atlas.h"
 #include "libcommon/math.h"
 #include "libcommon/point_tree.h"
+#include "libcommon/spheremap.h"
 
 namespace iris {
 
@@ -27,55 +28,107 @@ enum class GuideMode : uint8_t {
 GuideMode parse_guide_mode(const std::string& s);
 const char* guide_mode_name(GuideMode m);
 
+// How the probability alpha of BSDF sampling is set where a cache guides.
+struct GuideOptions {
+    // < 0: per cache, from the cache's own distribution (libcommon/bsdf_fraction.h), and caches whose
+    // predicted gain is below min_gain are not used at all (the vertex is unguided: no sampling cost).
+    // In [0, 1): this constant for every usable cache (the thesis's setting; for parameter studies).
+    float bsdf_fraction = -1.0f;
+    float min_gain = 1.25f;
+};
+
+// What the guide decided at load time, for the render's report.
+struct GuideSummary {
+    size_t caches = 0;         // in the atlas
+    size_t usable = 0;         // with enough photons (fill-caches)
+    size_t guiding = 0;        // used by the renderer: usable and, in the adaptive setting, worth it
+    double mean_alpha = 1.0;   // mean BSDF share over the guiding caches
+};
+
 class Guide {
 public:
-    // bsdf_fraction: probability alpha of BSDF sampling in the mixture modes (DESIGN 4.3), in (0, 1).
-    Guide(CacheAtlas atlas, float bsdf_fraction);
+    Guide(CacheAtlas atlas, const GuideOptions& options);
+    // Constant BSDF fraction alpha in [0, 1) for every usable cache (no per-cache choice).
+    Guide(CacheAtlas atlas, float bsdf_fraction) : Guide(std::move(atlas), GuideOptions{bsdf_fraction, 1.0f}) {}
 
     // The cache serving a vertex at p whose surface side (the side the path arrives from) has normal
-    // n_side, or -1. The nearest usable cache within a distance of its own gather radius (times a
-    // slack) whose normal is within ~45 degrees of n_side.
+    // n_side, or -1: the nearest guiding cache within a distance of its own gather radius (times a
+    // slack) whose normal is within 45 degrees of n_side. Exact (every cache that may serve p is
+    // tested) and starts loading the cache's sampling table into the CPU cache.
     int lookup(Vec3 p, Vec3 n_side) const;
 
     // Samples a world-space direction from cache c; *pdf receives its density per steradian.
-    Vec3 sample(int c, Vec2 u, float* pdf) const {
-        Vec3 local = sample_local(c, u, pdf);
-        return frames_[size_t(c)].to_world(local);
-    }
+    Vec3 sample(int c, Vec2 u, float* pdf) const;
     // Density per steradian with which sample(c, ...) produces the world direction w.
-    float pdf(int c, Vec3 w) const;
-    float bsdf_fraction(int c) const { return alpha_; }
+    float pdf(int c, Vec3 w) const { return texel_pdf(c, texel(c, w)); }
+
+    // The same in two steps, so that the integrator can start loading the memory a density needs
+    // before it traces the shadow ray and read it after: texel of w in cache c's map, its density.
+    int texel(int c, Vec3 w) const {
+        return sphere_texel_of(frames_[size_t(c)].to_local(w), atlas_.resolution);
+    }
+    float texel_pdf(int c, int k) const {
+        // As SphereDistribution::texel_pdf, reading the previous row's end from row_cdf (already loaded)
+        // rather than from the cdf line before this row's.
+        const float* cdf = cdf_row(c);
+        const int R = atlas_.resolution;
+        const float prev = k == 0 ? 0.0f : (k % R == 0 ? row_cdf(c)[k / R - 1] : cdf[k - 1]);
+        return (cdf[k] - prev) * per_sr_;
+    }
+    void prefetch_texel(int c, int k) const { __builtin_prefetch(cdf_row(c) + k); }
+    // Starts loading the cdf row that sample(c, u, ...) will search.
+    void prefetch_sample(int c, Vec2 u) const;
+    // Probability of BSDF sampling at a vertex that cache c serves.
+    float bsdf_fraction(int c) const { return alpha_[size_t(c)]; }
+    // The atlas's fields except its maps, which live in the guide's own table (below).
     const CacheAtlas& atlas() const { return atlas_; }
-    size_t usable_count() const { return usable_positions_.size(); }
+    const float* cdf_row(int c) const { return table_.get() + size_t(c) * stride_ + cdf_offset_; }
+    const GuideSummary& summary() const { return summary_; }
+    bool empty() const { return summary_.guiding == 0; }
 
 private:
-    // A hash grid over the usable caches: the cell of a vertex lists the caches inside it, contiguous in
-    // memory with what the test needs, so most lookups cost one hash probe and a short scan instead of
-    // a k-d tree descent. Vertices whose cell has no serving cache fall back to the tree.
+    // A hash grid over the guiding caches: each cell lists, contiguous in memory with what the test
+    // needs, the caches within half a cell of it, so most lookups cost one hash probe and a short scan.
+    // Vertices whose cell has no serving cache fall back to a k-d tree.
     struct GridEntry {
         Vec3 position;
-        Vec3 normal;
         float radius2;   // squared distance the cache may serve
+        Vec3 normal;
         uint32_t cache;  // index into the atlas
     };
-    void build_grid();
+    struct Slot {
+        uint64_t key = ~0ull;  // ~0 = empty
+        uint32_t begin = 0, end = 0;  // entries_ range of the cell
+    };
+    void build_grid(const std::vector<uint32_t>& guiding);
     int lookup_grid(Vec3 p, Vec3 n_side) const;
     int lookup_tree(Vec3 p, Vec3 n_side) const;
-    uint64_t cell_key(Vec3 p) const;
-    float cell_size_ = 0, inv_cell_ = 0;
+    std::vector<Vec3> positions_;       // of the guiding caches (the tree's points)
+    std::vector<uint32_t> guiding_ids_; // their atlas indices
+    std::unique_ptr<PointTree> tree_;
+    uint64_t cell_key(int64_t x, int64_t y, int64_t z) const;
+    float inv_cell_ = 0;
     Vec3 grid_origin_;
-    std::vector<GridEntry> entries_;              // grouped by cell
-    std::vector<uint64_t> slot_key_;              // open addressing, capacity a power of two; ~0 = empty
-    std::vector<uint32_t> slot_begin_, slot_end_; // entries_ range of each slot's cell
-    void prefetch(int c) const;
-    Vec3 sample_local(int c, Vec2 u, float* pdf) const;
+    std::vector<GridEntry> entries_;  // grouped by cell
+    std::vector<Slot> slots_;         // open addressing, capacity a power of two
     CacheAtlas atlas_;
     std::vector<Frame> frames_;
-    std::vector<Vec3> usable_positions_;
-    std::vector<uint32_t> usable_ids_;
-    std::vector<float> lookup_radius2_;  // per usable cache: squared distance it may serve
-    std::unique_ptr<PointTree> tree_;
-    float alpha_;
+    std::vector<float> alpha_;        // per cache; 1 = not guiding
+    // The maps, one block of stride_ floats per cache, 64-byte aligned, in huge pages where the system
+    // allows (random access to tens of MB: every lookup would otherwise also miss the TLB):
+    //   [row_cdf: R floats, padded to 16][cdf: N, padded to 16]
+    // row_cdf[j] is the cdf at the end of row j: a search there, then in one row of the cdf, touches
+    // two cache lines where a search of the whole cdf touches five or more. Densities are derived from
+    // the cdf (the atlas's pdf is by contract the same numbers), which halves the memory read.
+    struct FreeTable {
+        void operator()(float* p) const;
+    };
+    static std::unique_ptr<float[], FreeTable> allocate_table(size_t floats);
+    std::unique_ptr<float[], FreeTable> table_;
+    size_t stride_ = 0, cdf_offset_ = 0;
+    float per_sr_ = 0;  // N / (4 pi): texel probability -> density per steradian
+    const float* row_cdf(int c) const { return table_.get() + size_t(c) * stride_; }
+    GuideSummary summary_;
 };
 
 }  // namespace iris

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <thread>
 
@@ -24,6 +25,21 @@ namespace {
 // (Mitsuba's check), which prevents light leaks at silhouettes of smooth-shaded meshes.
 inline bool consistent_side(Vec3 w_world, Vec3 ng, float local_z) { return dot(w_world, ng) * local_z > 0; }
 
+// Whether cache guiding may help at a vertex with this BSDF. Near-specular lobes are sampled far better
+// by the BSDF than by a cache map (a 16x16 texel spans ~13 degrees), so there the vertex stays unguided
+// and pays nothing for the lookup; smooth plastic keeps guiding for its diffuse base.
+inline bool guidable(const Bsdf& b) {
+    switch (b.type) {
+        case BsdfType::Diffuse:
+        case BsdfType::RoughDiffuse:
+        case BsdfType::Plastic:
+        case BsdfType::RoughPlastic: return true;
+        case BsdfType::RoughConductor: return std::min(b.alpha_u, b.alpha_v) >= 0.2f;
+        case BsdfType::Ward: return !is_black(b.diffuse) || std::min(b.alpha_u, b.alpha_v) >= 0.2f;
+        default: return false;
+    }
+}
+
 }  // namespace
 
 RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSettings& ps, PathCounters& counters) {
@@ -36,6 +52,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
     Vec3 prev_p = ray.o;
     float eta_scale = 1.0f;    // product of relative IORs^2 crossed, for Russian roulette (Mitsuba)
     SurfaceHit hit;
+    int guided_vertices = 0;   // vertices at which a cache was looked up so far
     for (int depth = 1;; ++depth) {
         ++counters.rays;
         if (!scene.intersect(ray, &hit)) {
@@ -77,7 +94,8 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // mixture p_mix = alpha p_bsdf + (1 - alpha) p_cache (DESIGN 4.3). alpha = 1: unguided.
         int cache = -1;
         float alpha = 1.0f;
-        if (guide && !delta_only) {
+        if (guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf)) {
+            ++guided_vertices;
             Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
             cache = guide->lookup(hit.p, n_side);
             // nee+cache continues from the cache alone, except where the BSDF has a Dirac lobe beside
@@ -87,9 +105,15 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 alpha = (ps.mode == GuideMode::NeeCache && bsdf.type != BsdfType::Plastic) ? 0.0f
                                                                                           : guide->bsdf_fraction(cache);
         }
-        auto mix_pdf = [&](Vec3 wo_local, Vec3 wo_world, float p_bsdf) {
+        auto mix_pdf = [&](Vec3 wo_world, float p_bsdf) {
             return cache < 0 ? p_bsdf : alpha * p_bsdf + (1 - alpha) * guide->pdf(cache, wo_world);
         };
+
+        // The continuation's random numbers are drawn first, so that where the cache technique will be
+        // chosen its cdf row can start loading now and arrive while the shadow ray is traced.
+        const float uc = rng.next_float();
+        const Vec2 u{rng.next_float(), rng.next_float()};
+        if (cache >= 0 && uc >= alpha) guide->prefetch_sample(cache, u);
 
         // Next-event estimation (only where the BSDF has a non-delta part), MIS-weighted against the
         // continuation's full mixture density.
@@ -102,6 +126,12 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 if (consistent_side(ls.wi, hit.ng, wo.z)) {
                     RGB f = bsdf_eval(bsdf, wi, wo);
                     if (!is_black(f)) {
+                        // The cache density of the light direction: its memory loads during the shadow ray.
+                        int nee_texel = -1;
+                        if (cache >= 0 && !ls.delta) {
+                            nee_texel = guide->texel(cache, ls.wi);
+                            guide->prefetch_texel(cache, nee_texel);
+                        }
                         Vec3 from = offset_ray_origin(hit.p, hit.ng, ls.wi, hit.magnitude);
                         bool blocked;
                         ++counters.rays;
@@ -113,7 +143,13 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                             blocked = scene.occluded(from, to);
                         }
                         if (!blocked) {
-                            float w = ls.delta ? 1.0f : power_heuristic(ls.pdf, mix_pdf(wo, ls.wi, bsdf_pdf(bsdf, wi, wo)));
+                            float w = 1.0f;
+                            if (!ls.delta) {
+                                const float p_bsdf = bsdf_pdf(bsdf, wi, wo);
+                                const float p_mix = cache < 0 ? p_bsdf
+                                                              : alpha * p_bsdf + (1 - alpha) * guide->texel_pdf(cache, nee_texel);
+                                w = power_heuristic(ls.pdf, p_mix);
+                            }
                             L += beta * f * ls.radiance * (w / ls.pdf);
                         }
                     }
@@ -122,8 +158,6 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         }
 
         // Continue the path: BSDF sampling, or (guided) a one-sample choice between BSDF and cache.
-        float uc = rng.next_float();
-        Vec2 u{rng.next_float(), rng.next_float()};
         Vec3 wo_world;
         if (cache < 0) {
             BsdfSample bs;
@@ -150,7 +184,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                     prev_pdf = bs.pdf;
                     prev_delta = true;
                 } else {
-                    float p = mix_pdf(wo, wo_world, bs.pdf);
+                    float p = mix_pdf(wo_world, bs.pdf);
                     if (!(p > 0)) break;
                     beta *= bsdf_eval(bsdf, wi, wo) / p;
                     prev_pdf = p;
@@ -185,6 +219,111 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
     return L;
 }
 
+namespace {
+
+// A short pilot of one technique set on a sparse grid of pixels: how noisy its samples are relative to
+// the pixel value, and how long a sample takes. Efficiency = 1 / (noise * time per sample).
+struct PilotMeasure {
+    double rel_variance = 0;   // mean over the pilot pixels of the per-sample variance / (mean^2 + 0.01)
+    double seconds_per_sample = 0;
+};
+
+// Per pilot pixel: sum and sum of squares of the luminance of its samples.
+struct PilotPixel {
+    double sum = 0, sum2 = 0;
+};
+
+// Adds samples [s0, s1) of every pilot pixel (every stride-th pixel in each direction) to `acc`;
+// returns the wall seconds taken.
+double run_pilot(const Scene& scene, const Camera& camera, int width, int height, int stride, int s0, int s1,
+                 uint64_t seed, const PathSettings& ps, std::vector<PilotPixel>& acc) {
+    const int px = (width + stride - 1) / stride, py = (height + stride - 1) / stride;
+    acc.resize(size_t(px) * size_t(py));
+    const float fwd_near = scene.camera.near_clip, fwd_far = scene.camera.far_clip;
+    const auto t0 = std::chrono::steady_clock::now();
+    tbb::parallel_for(0, py, [&](int j) {
+        PathCounters counters;
+        for (int i = 0; i < px; ++i) {
+            const int x = std::min(width - 1, i * stride + stride / 2), y = std::min(height - 1, j * stride + stride / 2);
+            PilotPixel& pp = acc[size_t(j) * size_t(px) + size_t(i)];
+            for (int s = s0; s < s1; ++s) {
+                // Streams apart from the image's (sample indices from 2^23 on, which no render reaches);
+                // both techniques get the same numbers, which makes their comparison less noisy.
+                Rng rng = Rng::for_index(seed, Stream::Camera,
+                                         ((uint64_t(y) * uint64_t(width) + uint64_t(x)) << 24) ^ uint64_t((1 << 23) + s));
+                Ray ray;
+                ray.o = camera.origin;
+                ray.d = camera_direction(camera, x + rng.next_float(), y + rng.next_float(), width, height);
+                const float cos_fwd = dot(ray.d, camera.forward);
+                ray.tmin = fwd_near / cos_fwd;
+                ray.tmax = fwd_far / cos_fwd;
+                const RGB l = trace_path(scene, ray, rng, ps, counters);
+                const double v = is_finite(l) ? double(luminance(l)) : 0.0;
+                pp.sum += v;
+                pp.sum2 += v * v;
+            }
+        }
+    });
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width, int height, uint64_t seed,
+                             const PathSettings& guided, double budget_seconds) {
+    // Every 4th pixel in each direction. Passes of 2 samples per pixel alternate between the two
+    // technique sets (so neither alone pays for cold caches or a busy machine) until the budget is
+    // spent, with at least kMinSpp and at most kMaxSpp samples per pilot pixel: rare bright paths
+    // (caustics, fireflies) dominate relMSE, and only enough samples see them.
+    constexpr int kStride = 4, kPass = 2, kMinSpp = 8, kMaxSpp = 256;
+    PathSettings unguided = guided;
+    unguided.guide = nullptr;
+    unguided.mode = GuideMode::NeeBsdf;
+    std::vector<PilotPixel> u, g;
+    double tu = 0, tg = 0;
+    int spp = 0;
+    while (spp < kMaxSpp && (spp < kMinSpp || tu + tg < budget_seconds)) {
+        tu += run_pilot(scene, camera, width, height, kStride, spp, spp + kPass, seed, unguided, u);
+        tg += run_pilot(scene, camera, width, height, kStride, spp, spp + kPass, seed, guided, g);
+        spp += kPass;
+    }
+    // Relative noise of each against the same per-pixel value (the mean of both estimates), so that
+    // the two are judged on the same scale: what relMSE against a reference would weigh.
+    double ru = 0, rg = 0;
+    for (size_t i = 0; i < u.size(); ++i) {
+        const double mu = u[i].sum / spp, mg = g[i].sum / spp;
+        const double vu = std::max(0.0, (u[i].sum2 - u[i].sum * mu) / (spp - 1));
+        const double vg = std::max(0.0, (g[i].sum2 - g[i].sum * mg) / (spp - 1));
+        const double m = 0.5 * (mu + mg);
+        ru += vu / (m * m + 0.01);
+        rg += vg / (m * m + 0.01);
+    }
+    GuideDecision d;
+    const double pixels = double(std::max<size_t>(1, u.size())), n = pixels * spp;
+    d.unguided.rel_variance = ru / pixels;
+    d.guided.rel_variance = rg / pixels;
+    d.unguided.seconds_per_sample = tu / n;
+    d.guided.seconds_per_sample = tg / n;
+    d.pilot_seconds = tu + tg;
+    d.pilot_spp = spp;
+    const double eu = d.unguided.rel_variance * d.unguided.seconds_per_sample;
+    const double eg = d.guided.rel_variance * d.guided.seconds_per_sample;
+    // Efficiency of guiding relative to unguided; a scene without noise at all (0/0) stays unguided.
+    d.efficiency_ratio = eg > 0 ? eu / eg : (eu > 0 ? 1e30 : 1.0);
+    d.guide = d.efficiency_ratio > kGuideMargin;
+    return d;
+}
+
+std::string describe(const GuideDecision& d) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "%s: pilot predicts %.2fx the efficiency of unguided sampling (relative variance %.3g -> %.3g, "
+                  "%.3g -> %.3g us per sample; pilot %d spp on every 16th pixel, %.2f s)",
+                  d.guide ? "guided" : "unguided", d.efficiency_ratio, d.unguided.rel_variance, d.guided.rel_variance,
+                  d.unguided.seconds_per_sample * 1e6, d.guided.seconds_per_sample * 1e6, d.pilot_spp, d.pilot_seconds);
+    return buf;
+}
+
 Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* stats) {
     const int width = opt.width > 0 ? opt.width : scene.film.width;
     const int height = opt.height > 0 ? opt.height : scene.film.height;
@@ -198,6 +337,8 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     PathSettings ps;
     ps.guide = opt.guide;
     ps.mode = opt.guide ? opt.mode : GuideMode::NeeBsdf;
+    if (opt.guide_vertices < 0) throw std::runtime_error("--guide-vertices must be >= 0");
+    if (opt.guide_vertices > 0) ps.guide_vertices = opt.guide_vertices;
     if (!opt.guide && opt.mode == GuideMode::BsdfCache) ps.mode = GuideMode::BsdfCache;
     ps.max_depth = opt.max_depth >= -1 ? opt.max_depth : scene.defaults.max_depth;
     ps.rr_depth = opt.rr_depth >= -1 ? opt.rr_depth : scene.defaults.rr_depth;
@@ -216,9 +357,19 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     std::atomic<uint64_t> rays{0}, nonfinite{0};
     const float fwd_near = scene.camera.near_clip, fwd_far = scene.camera.far_clip;
 
-    Progress progress("render", timed ? uint64_t(opt.time * 1000) : uint64_t(target_spp) * tile_count, opt.quiet);
+    // The clock starts before the pilot: its time is part of the budget (equal-time comparisons).
     auto start = std::chrono::steady_clock::now();
     auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+    GuideDecision decision;
+    if (opt.auto_guide && ps.guide) {
+        // A pilot of ~3 % of a time budget (or the minimum for a fixed spp).
+        decision = decide_guiding(scene, camera, width, height, opt.seed, ps, timed ? 0.03 * opt.time : 0.0);
+        if (!decision.guide) {
+            ps.guide = nullptr;
+            ps.mode = GuideMode::NeeBsdf;
+        }
+    }
+    Progress progress("render", timed ? uint64_t(opt.time * 1000) : uint64_t(target_spp) * tile_count, opt.quiet);
 
     // One pass renders samples [s0, s1) of every pixel. Each sample's random numbers come from
     // (seed, pixel, sample index), so the image does not depend on threads or on how passes are cut.
@@ -296,6 +447,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         img.metadata["iris:version"] = IRIS_VERSION;
         img.metadata["iris:tool"] = "render";
         img.metadata["iris:mode"] = guide_mode_name(ps.mode);
+        if (opt.auto_guide && opt.guide) img.metadata["iris:auto_guide"] = describe(decision);
         return img;
     };
 
@@ -336,6 +488,8 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
                     (nonfinite ? ", " + std::to_string(nonfinite.load()) + " NaN/Inf samples discarded" : ""));
     Image img = make_image(spp, seconds);
     if (stats) {
+        stats->decision = decision;
+        stats->decided = opt.auto_guide && opt.guide;
         stats->spp = spp;
         stats->seconds = seconds;
         stats->paths = uint64_t(spp) * uint64_t(width) * uint64_t(height);

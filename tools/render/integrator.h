@@ -27,13 +27,36 @@ struct RenderOptions {
     std::string command_line;     // recorded in the output's metadata
     const Guide* guide = nullptr; // cache atlas to guide with (null = unguided)
     GuideMode mode = GuideMode::NeeBsdfCache;  // how techniques combine when guided
+    // Guide the first this many non-specular vertices of a path; 0 = all. Measured on the egg and the
+    // glass spheres (docs/benchmarks): two keep nearly all of the variance reduction at less cost.
+    int guide_vertices = 2;
+    // With a guide: measure unguided and guided sampling in a short pilot first and guide only if the
+    // pilot predicts a win at equal time (decide_guiding); the pilot's time counts in the budget.
+    bool auto_guide = false;
     // Progressive snapshots: when > 0 and `snapshot` is set, it is called with the image so far about
     // every `snapshot_interval` seconds (between passes, on the calling thread).
     double snapshot_interval = 0;
     std::function<void(const Image&)> snapshot;
 };
 
+// The pilot's verdict for automatic guiding: measured noise and cost of unguided and guided sampling on
+// a sparse pixel grid, and whether guiding is expected to win at equal time.
+struct GuideDecision {
+    struct Measure {
+        double rel_variance = 0;        // mean over pilot pixels of sample variance / (mean^2 + 0.01)
+        double seconds_per_sample = 0;  // wall seconds per path sample, all threads working
+    } unguided, guided;
+    double efficiency_ratio = 1;  // (noise x time) unguided / guided; > 1: guiding wins
+    double pilot_seconds = 0;
+    int pilot_spp = 0;            // samples per pilot pixel, each technique set
+    bool guide = false;
+};
+// One line for the user and the image's metadata.
+std::string describe(const GuideDecision& d);
+
 struct RenderStats {
+    GuideDecision decision;      // when automatic guiding decided (decided = true)
+    bool decided = false;
     int spp = 0;                 // samples per pixel taken
     double seconds = 0;          // wall time of the sampling passes
     uint64_t paths = 0;          // camera paths traced
@@ -48,12 +71,24 @@ struct PathSettings {
     int rr_depth = 5;
     const Guide* guide = nullptr;
     GuideMode mode = GuideMode::NeeBsdf;
+    // Guide only the first this many non-specular vertices of a path (deeper ones carry little of the
+    // pixel's variance but cost the same lookup).
+    int guide_vertices = 1 << 30;
 };
 
 // Counters kept per worker and summed at the end.
 struct PathCounters {
     uint64_t rays = 0;
 };
+
+// Guide only when the pilot predicts a clear win: the pilot is noisy, and losing is worse than not
+// winning (scenes guiding cannot help must not pay for it).
+inline constexpr double kGuideMargin = 1.1;
+
+// Runs the pilot (about budget_seconds, at least a minimum number of samples) for the guided settings
+// and their unguided counterpart.
+GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width, int height, uint64_t seed,
+                             const PathSettings& guided, double budget_seconds);
 
 class Rng;
 // Radiance along the camera ray (one sample of the path-space integral). Never returns NaN/Inf

@@ -17,7 +17,8 @@
 int main(int argc, char** argv) {
     iris::RenderOptions opt;
     std::string scene_path, output, resolution, atlas_path, mode = "nee+bsdf+cache";
-    float bsdf_fraction = 0.25f;
+    std::string bsdf_fraction = "auto";
+    iris::GuideOptions guide_options;
     std::vector<std::string> defines;
     CLI::App app{"render: path-trace a Mitsuba scene (NEE + BSDF sampling, MIS) into a linear OpenEXR image"};
     app.set_version_flag("--version", std::string("iris render ") + IRIS_VERSION);
@@ -36,8 +37,16 @@ int main(int argc, char** argv) {
     app.add_option("--atlas", atlas_path, "Cache atlas from fill-caches: guide the path tracer with it");
     app.add_option("--mode", mode,
                    "How sampling techniques combine: nee+bsdf | nee+cache | bsdf+cache | nee+bsdf+cache "
-                   "(default with --atlas; without an atlas: nee+bsdf, or bsdf+cache = BSDF sampling only)");
-    app.add_option("--bsdf-fraction", bsdf_fraction, "Probability of BSDF sampling where a cache guides (0..1)");
+                   "(default with --atlas; without an atlas: nee+bsdf, or bsdf+cache = BSDF sampling only) | auto "
+                   "(with --atlas: a short pilot measures nee+bsdf and nee+bsdf+cache and renders with the one "
+                   "predicted to win at equal time; the pilot counts in --time)");
+    app.add_option("--bsdf-fraction", bsdf_fraction,
+                   "Probability of BSDF sampling where a cache guides: auto (default: chosen per cache from its "
+                   "distribution; caches predicted to gain less than --min-gain are not used) or a constant in [0, 1)");
+    app.add_option("--guide-vertices", opt.guide_vertices,
+                   "Guide only the first N non-specular vertices of each path (0 = all; default 2)");
+    app.add_option("--min-gain", guide_options.min_gain,
+                   "With --bsdf-fraction auto: least predicted variance reduction for a cache to be used (>= 1)");
     app.add_option("--snapshot", opt.snapshot_interval,
                    "Every SECONDS, write the image so far to the output (atomically), so that an interrupted "
                    "render still leaves a usable image");
@@ -50,8 +59,16 @@ int main(int argc, char** argv) {
             throw std::runtime_error("--snapshot must be a positive number of seconds");
         if (!resolution.empty()) iris::parse_resolution(resolution, &opt.width, &opt.height);
         iris::check_output_path(output);
-        opt.mode = iris::parse_guide_mode(mode);
-        if (!(bsdf_fraction >= 0 && bsdf_fraction < 1)) throw std::runtime_error("--bsdf-fraction must be in [0, 1)");
+        opt.auto_guide = mode == "auto";
+        opt.mode = opt.auto_guide ? iris::GuideMode::NeeBsdfCache : iris::parse_guide_mode(mode);
+        if (opt.auto_guide && atlas_path.empty()) throw std::runtime_error("--mode auto needs --atlas");
+        if (bsdf_fraction != "auto") {
+            guide_options.bsdf_fraction = iris::parse_float_option("--bsdf-fraction", bsdf_fraction);
+            if (!(guide_options.bsdf_fraction >= 0 && guide_options.bsdf_fraction < 1))
+                throw std::runtime_error("--bsdf-fraction must be auto or in [0, 1), got " + bsdf_fraction);
+        }
+        if (!(guide_options.min_gain >= 1 && std::isfinite(guide_options.min_gain)))
+            throw std::runtime_error("--min-gain must be >= 1");
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
         opt.command_line = iris::join_args(argc, argv);
@@ -59,14 +76,21 @@ int main(int argc, char** argv) {
         std::unique_ptr<iris::Guide> guide;
         if (!atlas_path.empty() && opt.mode != iris::GuideMode::NeeBsdf) {
             iris::CacheAtlasFile f = iris::read_cache_atlas(atlas_path, scene.fingerprint);
-            guide = std::make_unique<iris::Guide>(std::move(f.atlas), bsdf_fraction);
-            opt.guide = guide.get();
+            guide = std::make_unique<iris::Guide>(std::move(f.atlas), guide_options);
+            const iris::GuideSummary& g = guide->summary();
+            if (!opt.quiet)
+                std::fprintf(stderr, "render: guiding with %zu of %zu caches (%zu usable; mean BSDF share %.2f)%s\n",
+                             g.guiding, g.caches, g.usable, g.mean_alpha,
+                             g.guiding ? "" : ": none is predicted to beat BSDF sampling, rendering unguided");
+            // A guide without caches would only cost lookups.
+            if (!guide->empty()) opt.guide = guide.get();
         } else if (atlas_path.empty() && (opt.mode == iris::GuideMode::NeeCache)) {
             throw std::runtime_error("--mode nee+cache needs --atlas");
         }
         if (opt.snapshot_interval > 0) opt.snapshot = [&](const iris::Image& img) { iris::write_exr(output, img); };
         iris::RenderStats stats;
         iris::Image img = iris::render_image(scene, opt, &stats);
+        if (stats.decided && !opt.quiet) std::fprintf(stderr, "render: %s\n", iris::describe(stats.decision).c_str());
         iris::write_exr(output, img);
         if (!opt.quiet)
             std::fprintf(stderr, "render: wrote %s (%dx%d, %d spp, %.2f s, %.2f Mpaths/s, %.2f Mrays/s%s)\n",
