@@ -39,7 +39,7 @@ constexpr float kLookupSlack = 1.5f;
 // Normal agreement between cache and vertex (cos 45 degrees).
 constexpr float kLookupNormalCos = 0.7071f;
 // Caches the tree fallback looks at (nearest first) where no cache of the vertex's cell serves it.
-constexpr uint32_t kLookupCandidates = 4;
+constexpr uint32_t kLookupCandidates = 8;
 }  // namespace
 
 // 2 MiB-aligned (the huge page size on x86-64) and advised for transparent huge pages.
@@ -124,6 +124,10 @@ void Guide::build_grid(const std::vector<uint32_t>& guiding) {
     // Each cache is listed in every cell within half a cell of it, so a cell's list holds every cache
     // closer than half a cell to any of its points: the nearest cache is almost always among them.
     const float reach = 0.5f * cell;
+    reach_ = reach;
+    max_serve2_ = 0;
+    for (uint32_t c : guiding) max_serve2_ = std::max(max_serve2_, sqr(atlas_.radius[c] * kLookupSlack));
+    max_serve2_ = std::nextafter(max_serve2_, kInf);  // the tree's bound is exclusive
     grid_origin_ = Vec3(kInf);
     for (Vec3 p : positions_) grid_origin_ = vmin(grid_origin_, p - Vec3(reach));
     std::vector<std::pair<uint64_t, uint32_t>> listed;
@@ -168,7 +172,12 @@ uint64_t Guide::cell_key(int64_t x, int64_t y, int64_t z) const {
 
 int Guide::lookup(Vec3 p, Vec3 n_side) const {
     if (slots_.empty() || !is_finite(p)) return -1;
-    int c = lookup_grid(p, n_side);
+    // The grid lists in p's cell every cache within `reach` of p, so its answer is the nearest serving
+    // cache whenever one is that close; a farther one it finds serves too, and is used as it is (any
+    // fixed choice keeps the estimator unbiased; exact nearest-ness would cost a tree search at a
+    // large share of vertices). Only when the cell has none does the tree decide.
+    float d2 = kInf;
+    int c = lookup_grid(p, n_side, &d2);
     if (c < 0) c = lookup_tree(p, n_side);
     if (c >= 0) {
         // Sampling reads the row ends first, then one row of the cdf: start loading the former now,
@@ -181,7 +190,7 @@ int Guide::lookup(Vec3 p, Vec3 n_side) const {
     return c;
 }
 
-int Guide::lookup_grid(Vec3 p, Vec3 n_side) const {
+int Guide::lookup_grid(Vec3 p, Vec3 n_side, float* best_d2) const {
     const Vec3 q = (p - grid_origin_) * inv_cell_;
     // Far outside the grid (or beyond int64): left to the tree.
     if (!(std::abs(q.x) < 1e15f && std::abs(q.y) < 1e15f && std::abs(q.z) < 1e15f)) return -1;
@@ -192,12 +201,11 @@ int Guide::lookup_grid(Vec3 p, Vec3 n_side) const {
         if (s.key == ~0ull) return -1;
         if (s.key != key) continue;
         int best = -1;
-        float best_d2 = kInf;
         for (uint32_t e = s.begin; e < s.end; ++e) {
             const GridEntry& g = entries_[e];
             const float d2 = length_sq(g.position - p);
-            if (d2 < best_d2 && d2 <= g.radius2 && dot(g.normal, n_side) >= kLookupNormalCos) {
-                best_d2 = d2;
+            if (d2 < *best_d2 && d2 <= g.radius2 && dot(g.normal, n_side) >= kLookupNormalCos) {
+                *best_d2 = d2;
                 best = int(g.cache);
             }
         }
@@ -205,16 +213,30 @@ int Guide::lookup_grid(Vec3 p, Vec3 n_side) const {
     }
 }
 
+bool Guide::serves(uint32_t c, Vec3 n_side, float d2) const {
+    const float r = atlas_.radius[c] * kLookupSlack;
+    return d2 <= r * r && dot(atlas_.normal[c], n_side) >= kLookupNormalCos;
+}
+
 int Guide::lookup_tree(Vec3 p, Vec3 n_side) const {
+    // The nearest few first (sorted: the first that serves is the nearest serving cache) ...
     uint32_t idx[kLookupCandidates];
     float d2[kLookupCandidates];
-    const uint32_t n = tree_->nearest(p, kLookupCandidates, kInf, idx, d2);
-    for (uint32_t i = 0; i < n; ++i) {
-        const uint32_t c = guiding_ids_[idx[i]];
-        const float r = atlas_.radius[c] * kLookupSlack;
-        if (d2[i] <= r * r && dot(atlas_.normal[c], n_side) >= kLookupNormalCos) return int(c);
-    }
-    return -1;
+    const uint32_t n = tree_->nearest(p, kLookupCandidates, max_serve2_, idx, d2);
+    for (uint32_t i = 0; i < n; ++i)
+        if (serves(guiding_ids_[idx[i]], n_side, d2[i])) return int(guiding_ids_[idx[i]]);
+    if (n < kLookupCandidates) return -1;  // no other cache is within the largest serving distance
+    // ... then all caches within the largest serving distance (rare: creases, thin walls).
+    thread_local std::vector<std::pair<uint32_t, float>> found;
+    tree_->within(p, max_serve2_, found);
+    int best = -1;
+    float best_d2 = kInf;
+    for (const auto& [i, dist2] : found)
+        if (dist2 < best_d2 && serves(guiding_ids_[i], n_side, dist2)) {
+            best_d2 = dist2;
+            best = int(guiding_ids_[i]);
+        }
+    return best;
 }
 
 Vec3 Guide::sample(int c, Vec2 u, float* pdf) const {

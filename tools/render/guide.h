@@ -52,9 +52,10 @@ public:
     Guide(CacheAtlas atlas, float bsdf_fraction) : Guide(std::move(atlas), GuideOptions{bsdf_fraction, 1.0f}) {}
 
     // The cache serving a vertex at p whose surface side (the side the path arrives from) has normal
-    // n_side, or -1: the nearest guiding cache within a distance of its own gather radius (times a
-    // slack) whose normal is within 45 degrees of n_side. Exact (every cache that may serve p is
-    // tested) and starts loading the cache's sampling table into the CPU cache.
+    // n_side, or -1 when none serves: a guiding cache within a distance of its own gather radius (times
+    // a slack) whose normal is within 45 degrees of n_side -- the nearest such cache whenever one lies
+    // within lookup_reach() of p, else the nearest listed in p's grid cell or found by the tree.
+    // Starts loading the cache's sampling table into the CPU cache.
     int lookup(Vec3 p, Vec3 n_side) const;
 
     // Samples a world-space direction from cache c; *pdf receives its density per steradian.
@@ -84,6 +85,7 @@ public:
     const CacheAtlas& atlas() const { return atlas_; }
     const float* cdf_row(int c) const { return table_.get() + size_t(c) * stride_ + cdf_offset_; }
     const GuideSummary& summary() const { return summary_; }
+    float lookup_reach() const { return reach_; }
     bool empty() const { return summary_.guiding == 0; }
 
 private:
@@ -101,8 +103,13 @@ private:
         uint32_t begin = 0, end = 0;  // entries_ range of the cell
     };
     void build_grid(const std::vector<uint32_t>& guiding);
-    int lookup_grid(Vec3 p, Vec3 n_side) const;
+    // The nearest serving cache listed in p's cell (*best_d2: its squared distance, kInf if none).
+    int lookup_grid(Vec3 p, Vec3 n_side, float* best_d2) const;
+    // The nearest serving cache, from the k-d tree.
     int lookup_tree(Vec3 p, Vec3 n_side) const;
+    bool serves(uint32_t cache, Vec3 n_side, float d2) const;
+    float reach_ = 0;       // a cell lists every cache within this distance of it
+    float max_serve2_ = 0;  // largest squared serving distance of any guiding cache
     std::vector<Vec3> positions_;       // of the guiding caches (the tree's points)
     std::vector<uint32_t> guiding_ids_; // their atlas indices
     std::unique_ptr<PointTree> tree_;

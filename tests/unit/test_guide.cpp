@@ -1,0 +1,193 @@
+// The renderer's side of the cache atlas (tools/render/guide.h) and the per-cache BSDF fraction
+// (libcommon/bsdf_fraction.h):
+//   - the two-level cdf search gives bit for bit the sample of the plain search, and the density derived
+//     from the cdf is bit for bit the stored pdf (so the guide may drop the pdf table);
+//   - the hash-grid lookup (with its tree fallback) finds a serving cache exactly when one exists, and
+//     the one it returns serves (distance and normal), compared against brute force;
+//   - the BSDF fraction: a cache whose distribution is the cosine gains nothing and is not used, a
+//     peaked one gets a small alpha and a large predicted gain.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "libcommon/bsdf_fraction.h"
+#include "libcommon/rng.h"
+#include "libcommon/sampling.h"
+#include "libcommon/spheremap.h"
+#include "tools/render/guide.h"
+
+namespace iris {
+namespace {
+
+// A distribution with a few bright texels over a varying background, and some exact zeros.
+std::vector<float> lumpy_weights(int R, uint64_t seed) {
+    Rng rng(seed, 1);
+    std::vector<float> w(size_t(R * R));
+    for (float& v : w) v = rng.next_float() < 0.1f ? 0.0f : rng.next_float();
+    for (int i = 0; i < 3; ++i) w[size_t(rng.next_float() * float(R * R)) % w.size()] += 50.0f;
+    return w;
+}
+
+TEST(GuideTable, RowSearchSamplesExactlyLikeThePlainSearch) {
+    for (int R : {1, 7, 16, 32}) {
+        const int N = R * R;
+        std::vector<float> cdf(static_cast<size_t>(N)), pdf(static_cast<size_t>(N)), row_cdf(static_cast<size_t>(R));
+        SphereDistribution::build(lumpy_weights(R, uint64_t(R)).data(), R, cdf.data(), pdf.data());
+        for (int j = 0; j < R; ++j) row_cdf[size_t(j)] = cdf[size_t(j * R + R - 1)];
+        for (int k = 0; k < N; ++k)
+            ASSERT_EQ(SphereDistribution::texel_pdf(cdf.data(), R, k), pdf[size_t(k)]) << "R " << R << " texel " << k;
+        Rng rng(99, 2);
+        for (int s = 0; s < 20000; ++s) {
+            // Include the ends of [0, 1) and values exactly on cdf steps.
+            Vec2 u{rng.next_float(), rng.next_float()};
+            if (s % 97 == 0) u.x = cdf[size_t(s % N)];
+            if (s == 1) u = {0.0f, 0.0f};
+            if (s == 2) u = {0x1.fffffep-1f, 0x1.fffffep-1f};
+            float p_plain = -1;
+            const Vec3 a = SphereDistribution::sample(cdf.data(), pdf.data(), R, u, &p_plain);
+            int texel = -1;
+            const Vec3 b = SphereDistribution::sample_by_rows(cdf.data(), row_cdf.data(), R, u, &texel);
+            ASSERT_EQ(a.x, b.x);
+            ASSERT_EQ(a.y, b.y);
+            ASSERT_EQ(a.z, b.z);
+            ASSERT_EQ(pdf[size_t(texel)], p_plain);
+        }
+    }
+}
+
+// An atlas of caches on two parallel planes facing each other (normals +z at z = 0, -z at z = 1),
+// with varied radii; every map uniform.
+CacheAtlas plane_atlas(size_t n, uint64_t seed) {
+    Rng rng(seed, 3);
+    CacheAtlas a;
+    a.resolution = 4;
+    a.k = 10;
+    a.floor = 0.1;
+    a.filter = "none";
+    const size_t N = a.texels();
+    for (size_t c = 0; c < n; ++c) {
+        const bool top = c % 2 == 1;
+        a.position.push_back({rng.next_float() * 10, rng.next_float() * 10, top ? 1.0f : 0.0f});
+        a.normal.push_back({0, 0, top ? -1.0f : 1.0f});
+        a.radius.push_back(0.05f + 0.5f * rng.next_float() * rng.next_float());
+        a.photon_count.push_back(10);
+        a.usable.push_back(c % 7 == 3 ? 0 : 1);  // some unusable: never returned
+    }
+    std::vector<float> w(N, 1.0f);
+    a.pdf.resize(n * N);
+    a.cdf.resize(n * N);
+    for (size_t c = 0; c < n; ++c) SphereDistribution::build(w.data(), a.resolution, &a.cdf[c * N], &a.pdf[c * N]);
+    return a;
+}
+
+TEST(GuideLookup, FindsAServingCacheExactlyWhenOneExists) {
+    const CacheAtlas atlas = plane_atlas(3000, 7);
+    const Guide guide(atlas, 0.25f);  // constant fraction: every usable cache guides
+    Rng rng(11, 4);
+    const float slack = 1.5f, normal_cos = 0.7071f;
+    int found = 0, none = 0;
+    for (int q = 0; q < 20000; ++q) {
+        // Points on and near either plane, and some between them; normals up, down or tilted.
+        const float z = q % 3 == 0 ? 0.0f : q % 3 == 1 ? 1.0f : rng.next_float();
+        const Vec3 p{rng.next_float() * 11 - 0.5f, rng.next_float() * 11 - 0.5f, z + 0.02f * (rng.next_float() - 0.5f)};
+        const Vec3 n = normalize(Vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, q % 2 ? 1.0f : -1.0f));
+        bool exists = false;
+        for (size_t c = 0; c < atlas.size() && !exists; ++c) {
+            const float r = atlas.radius[c] * slack;
+            exists = atlas.usable[c] && length_sq(atlas.position[c] - p) <= r * r && dot(atlas.normal[c], n) >= normal_cos;
+        }
+        const int c = guide.lookup(p, n);
+        ASSERT_EQ(c >= 0, exists) << "query " << q;
+        // The nearest of the serving caches whenever one lies within the lookup's reach.
+        if (c >= 0)
+            for (size_t o = 0; o < atlas.size(); ++o) {
+                const float r = atlas.radius[o] * slack, d2 = length_sq(atlas.position[o] - p);
+                if (atlas.usable[o] && d2 <= r * r && dot(atlas.normal[o], n) >= normal_cos &&
+                    d2 <= sqr(guide.lookup_reach()))
+                    ASSERT_LE(length_sq(atlas.position[size_t(c)] - p), d2) << "query " << q << " cache " << o;
+            }
+        if (c < 0) {
+            ++none;
+            continue;
+        }
+        ++found;
+        const float r = atlas.radius[size_t(c)] * slack;
+        EXPECT_TRUE(atlas.usable[size_t(c)]);
+        EXPECT_LE(length_sq(atlas.position[size_t(c)] - p), r * r);
+        EXPECT_GE(dot(atlas.normal[size_t(c)], n), normal_cos);
+    }
+    // Both outcomes occur, so neither branch went untested.
+    EXPECT_GT(found, 1000);
+    EXPECT_GT(none, 1000);
+    EXPECT_EQ(guide.lookup(Vec3(1e30f, 0, 0), Vec3(0, 0, 1)), -1);
+    EXPECT_EQ(guide.lookup(Vec3(std::nanf(""), 0, 0), Vec3(0, 0, 1)), -1);
+}
+
+// Densities per steradian of a map of R x R texels proportional to f(local direction), with floor.
+std::vector<float> map_of(int R, double floor, float (*f)(Vec3)) {
+    std::vector<float> w(size_t(R * R));
+    for (int j = 0; j < R; ++j)
+        for (int i = 0; i < R; ++i) {
+            double s = 0;
+            for (int b = 0; b < 8; ++b)
+                for (int a = 0; a < 8; ++a)
+                    s += f(square_to_sphere({(i + (a + 0.5f) / 8) / R, (j + (b + 0.5f) / 8) / R}));
+            w[size_t(j * R + i)] = float(s);
+        }
+    SphereMap m(R);
+    std::copy(w.begin(), w.end(), m.data());
+    m.normalise_floor(float(floor));
+    std::vector<float> cdf(w.size()), pdf(w.size());
+    SphereDistribution::build(m.data(), R, cdf.data(), pdf.data());
+    return pdf;
+}
+
+TEST(BsdfFraction, CosineMapGainsNothingAndPeakedMapGainsMuch) {
+    const int R = 16;
+    const double floor = 0.1;
+    const BsdfFractionChooser chooser(R, floor, 0.2f);
+    const std::vector<float> cosine = map_of(R, floor, [](Vec3 w) { return std::max(0.0f, w.z); });
+    const BsdfFractionChoice c = chooser.choose(cosine.data());
+    EXPECT_EQ(c.alpha, 1.0f);
+    EXPECT_LT(c.gain, 1.05f);
+    // Light from a ~20 degree cone 60 degrees off the normal: cosine sampling rarely hits it.
+    const std::vector<float> peaked = map_of(R, floor, [](Vec3 w) {
+        const Vec3 d = normalize(Vec3(std::sin(1.05f), 0.0f, std::cos(1.05f)));
+        return dot(w, d) > std::cos(0.17f) ? 1.0f : 0.0f;
+    });
+    const BsdfFractionChoice p = chooser.choose(peaked.data());
+    EXPECT_LE(p.alpha, 0.3f);
+    EXPECT_GE(p.alpha, 0.2f);  // never below the defensive minimum
+    EXPECT_GT(p.gain, 5.0f);
+    EXPECT_THROW(BsdfFractionChooser(R, 1.0, 0.2f), std::invalid_argument);
+    EXPECT_THROW(BsdfFractionChooser(R, 0.1, 0.0f), std::invalid_argument);
+}
+
+TEST(BsdfFraction, GuideSkipsCachesThatCannotBeatTheBsdf) {
+    CacheAtlas a = plane_atlas(200, 5);
+    const size_t N = a.texels();
+    // Half the caches hold the cosine distribution, the others a peak: only the latter may guide.
+    const std::vector<float> cosine = map_of(a.resolution, a.floor, [](Vec3 w) { return std::max(0.0f, w.z); });
+    const std::vector<float> peak = map_of(a.resolution, a.floor, [](Vec3 w) { return w.x > 0.9f ? 1.0f : 0.0f; });
+    for (size_t c = 0; c < a.size(); ++c) {
+        const std::vector<float>& src = c % 2 ? peak : cosine;
+        std::vector<float> cdf(N), pdf(N);
+        // Rebuild from the densities so that the row's cdf matches.
+        SphereDistribution::build(src.data(), a.resolution, cdf.data(), pdf.data());
+        std::copy(cdf.begin(), cdf.end(), a.cdf.begin() + long(c * N));
+        std::copy(pdf.begin(), pdf.end(), a.pdf.begin() + long(c * N));
+    }
+    size_t usable = 0, usable_peak = 0;
+    for (size_t c = 0; c < a.size(); ++c) {
+        usable += a.usable[c];
+        usable_peak += a.usable[c] && c % 2;
+    }
+    const Guide guide(a, GuideOptions{});
+    EXPECT_EQ(guide.summary().usable, usable);
+    EXPECT_EQ(guide.summary().guiding, usable_peak);
+    for (size_t c = 0; c < a.size(); ++c)
+        EXPECT_EQ(guide.bsdf_fraction(int(c)) < 1.0f, a.usable[c] && c % 2 == 1) << "cache " << c;
+}
+
+}  // namespace
+}  // namespace iris
