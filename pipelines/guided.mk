@@ -27,10 +27,10 @@ QUIET ?= -q
 PATHS ?= 250000
 PHOTON_DEPTH ?= 30
 # place-caches
-COUNT ?= 20000
+COUNT ?= 4000
 STRIDE ?= 8
 # fill-caches
-K ?= 2000
+K ?= 1000
 RES ?= 16
 SIGMA ?= 0.75
 FLOOR ?= 0.1
@@ -38,8 +38,8 @@ MAX_RADIUS ?= 0.05
 # render
 TIME ?= 30
 SPP ?= 0
-MODE ?= nee+bsdf+cache
-BSDF_FRACTION ?= 0.25
+MODE ?= auto
+BSDF_FRACTION ?= auto
 RENDER_FLAGS ?=
 # reference (unguided, long), kept outside the output folder so several runs share it
 REF_SPP ?= 1024

@@ -50,6 +50,8 @@ int main(int argc, char** argv) {
     bool metadata = false;
     std::string srgb_png;
     app.add_option("--srgb-png", srgb_png, "Also write TEST as an 8-bit sRGB PNG (exposure 0, clipped)");
+    std::string crop;
+    app.add_option("--crop", crop, "With --srgb-png: write only the pixel rectangle x0,y0,x1,y1 (half-open)");
     app.add_flag("--metadata", metadata, "Only print TEST's metadata (EXR string attributes), one 'key value' per line");
     app.add_option("--mask", masks, "Leave out the pixel rectangle x0,y0,x1,y1 (half-open); repeatable");
     app.add_flag("--mitsuba-banner", mitsuba_banner, "Leave out Mitsuba's banner (rows >= H-12, columns 650-765)");
@@ -75,6 +77,21 @@ int main(int argc, char** argv) {
             std::vector<float> rgb = load_rgb(test_path, &w, &h, &is8);
             if (!is8)
                 for (float& v : rgb) v = iris::to_srgb8(v) / 255.0f;
+            if (!crop.empty()) {
+                int x0, y0, x1, y1;
+                char tail = 0;
+                if (std::sscanf(crop.c_str(), "%d,%d,%d,%d%c", &x0, &y0, &x1, &y1, &tail) != 4 || x0 < 0 || y0 < 0 ||
+                    x1 <= x0 || y1 <= y0 || x1 > w || y1 > h)
+                    throw std::runtime_error("--crop must be x0,y0,x1,y1 inside the " + std::to_string(w) + "x" +
+                                             std::to_string(h) + " image, got \"" + crop + "\"");
+                std::vector<float> part;
+                part.reserve(size_t(x1 - x0) * size_t(y1 - y0) * 3);
+                for (int y = y0; y < y1; ++y)
+                    part.insert(part.end(), rgb.begin() + (size_t(y) * w + x0) * 3, rgb.begin() + (size_t(y) * w + x1) * 3);
+                rgb = std::move(part);
+                w = x1 - x0;
+                h = y1 - y0;
+            }
             iris::write_png(srgb_png, w, h, rgb);
             if (ref_path.empty()) return 0;
         }

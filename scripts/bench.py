@@ -1,0 +1,358 @@
+#!/usr/bin/env python3
+"""Run time against error: the benchmark behind docs/BENCHMARKS.md (issue 4). Driven by pipelines/bench.mk.
+
+Subcommands (each writes files; bench.mk decides what is stale):
+  reference  an unguided long render of a scene (independent of the guiding code) with a manifest
+  runs       for one scene: the guided pipeline's preprocessing once, then every mode at a ladder of
+             total time budgets (preprocessing counted inside a guided budget), each compared against
+             the reference; one line per render in results.tsv
+  report     tables, log-log plots (SVG) and image crops for every scene of a tier
+
+Only the Python standard library is used. Times are wall seconds on this machine, measured around each
+tool's whole command (scene loading and atlas loading included), so that modes are compared at equal
+total cost. Efficiency = 1 / (relMSE x time); its ratio to nee+bsdf at the same budget is the headline.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+
+BIN = os.environ.get("IRIS_BIN", "build/bin")
+
+
+def film_size(scene):
+    """Width and height of the scene's hdrfilm (Mitsuba's defaults 768 x 576)."""
+    root = ET.parse(scene).getroot()
+    w, h = 768, 576
+    for film in root.iter("film"):
+        for e in film.findall("integer"):
+            if e.get("name") == "width":
+                w = int(e.get("value"))
+            if e.get("name") == "height":
+                h = int(e.get("value"))
+    return w, h
+
+
+def scaled_resolution(scene, scale):
+    w, h = film_size(scene)
+    return max(1, round(w * scale)), max(1, round(h * scale))
+
+
+def run(cmd, **kw):
+    """Runs a command; returns its wall seconds. Raises with the command's stderr on failure."""
+    t0 = time.monotonic()
+    p = subprocess.run(cmd, capture_output=True, text=True, **kw)
+    seconds = time.monotonic() - t0
+    if p.returncode != 0:
+        sys.exit("bench: failed (%d): %s\n%s" % (p.returncode, " ".join(cmd), p.stderr.strip()))
+    return seconds, p.stdout, p.stderr
+
+
+def metadata(exr):
+    _, out, _ = run([BIN + "/compare-images", exr, "--metadata"])
+    meta = {}
+    for line in out.splitlines():
+        k, _, v = line.partition(" ")
+        meta[k] = v
+    return meta
+
+
+def compare(test, ref):
+    _, out, _ = run([BIN + "/compare-images", test, ref, "--json"])
+    return json.loads(out)
+
+
+def cmd_reference(a):
+    w, h = scaled_resolution(a.scene, a.scale)
+    os.makedirs(os.path.dirname(a.output) or ".", exist_ok=True)
+    cmd = [BIN + "/render", a.scene, "-o", a.output, "--mode", "nee+bsdf", "--spp", str(a.spp),
+           "--resolution", "%dx%d" % (w, h), "--seed", "1000003", "--variance", "-q"]
+    seconds, _, _ = run(cmd)
+    meta = metadata(a.output)
+    with open(a.output + ".manifest.tmp", "w") as f:
+        f.write("scene %s\n" % a.scene)
+        f.write("scene_fingerprint %s\n" % meta.get("iris:scene_fingerprint", "?"))
+        f.write("resolution %dx%d\n" % (w, h))
+        f.write("spp %s\n" % meta.get("iris:spp", "?"))
+        f.write("seconds %.1f\n" % seconds)
+        f.write("version %s\n" % meta.get("iris:version", "?"))
+        f.write("command %s\n" % " ".join(cmd))
+    os.replace(a.output + ".manifest.tmp", a.output + ".manifest")
+    print("reference %s: %s spp, %.0f s" % (a.output, meta.get("iris:spp"), seconds))
+
+
+def cmd_runs(a):
+    w, h = scaled_resolution(a.scene, a.scale)
+    res = "%dx%d" % (w, h)
+    os.makedirs(a.out, exist_ok=True)
+    # The reference must be of this scene (fingerprint) and size.
+    ref_meta = metadata(a.reference)
+    budgets = [float(b) for b in a.budgets.split(",")]
+    modes = a.modes.split(",")
+    guided_modes = [m for m in modes if m != "nee+bsdf"]
+    prep = 0.0
+    prep_parts = {}
+    if guided_modes:
+        # Preprocessing once through the pipeline (its stages time themselves); rerun from scratch so
+        # that the times are this run's.
+        for stage in ("photons", "caches", "atlas"):
+            for ext in (".h5", ".seconds", ".params"):
+                p = os.path.join(a.out, stage + ext)
+                if os.path.exists(p):
+                    os.remove(p)
+        run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + a.scene, "OUT=" + a.out, "BIN=" + BIN, "atlas"]
+            + a.pipeline_vars)
+        for stage in ("photons", "caches", "atlas"):
+            with open(os.path.join(a.out, stage + ".seconds")) as f:
+                prep_parts[stage] = float(f.read())
+        prep = sum(prep_parts.values())
+    atlas = os.path.join(a.out, "atlas.h5")
+    rows = []
+    for b in budgets:
+        for m in modes:
+            out = os.path.join(a.out, "%s-%gs.exr" % (m.replace("+", "_"), b))
+            render_time = b - (prep if m != "nee+bsdf" else 0.0)
+            if render_time <= 0:
+                rows.append(dict(mode=m, budget=b, skipped="preprocessing alone exceeds the budget"))
+                continue
+            cmd = [BIN + "/render", a.scene, "-o", out, "--resolution", res, "--time", "%.3f" % render_time,
+                   "--seed", "7", "-q"]
+            if m != "nee+bsdf":
+                cmd += ["--atlas", atlas, "--mode", m]
+            wall, _, _ = run(cmd)
+            meta = metadata(out)
+            c = compare(out, a.reference)
+            rows.append(dict(mode=m, budget=b, prep=prep if m != "nee+bsdf" else 0.0, render_wall=wall,
+                             total=wall + (prep if m != "nee+bsdf" else 0.0), spp=int(meta["iris:spp"]),
+                             sampling_seconds=float(meta["iris:seconds"]), relmse=c["relmse"],
+                             relmse_trimmed=c["relmse_trimmed"], mape=c["mape"],
+                             nonfinite=int(meta.get("iris:nonfinite_samples", "0")),
+                             decision=meta.get("iris:auto_guide", ""), image=out))
+            print("  %-16s %5.1f s: relMSE %.4g (%s spp)%s" % (m, b, c["relmse"], meta["iris:spp"],
+                  ("  [" + meta["iris:auto_guide"].split(":")[0] + "]") if meta.get("iris:auto_guide") else ""))
+    info = dict(scene=a.scene, name=a.name, resolution=res, reference=a.reference,
+                reference_spp=ref_meta.get("iris:spp"), prep=prep, prep_parts=prep_parts,
+                atlas_bytes=os.path.getsize(atlas) if guided_modes else 0,
+                pipeline_vars=a.pipeline_vars, rows=rows, date=time.strftime("%Y-%m-%d"),
+                threads=os.cpu_count())
+    if guided_modes:
+        # Memory the renderer holds for the maps: per cache, the row ends and the cdf, each padded to
+        # 16 floats (tools/render/guide.h).
+        _, out, _ = run([BIN + "/inspect-caches", atlas])
+        stats = dict(line.split(None, 1) for line in out.splitlines() if line.startswith(("caches ", "map ")))
+        caches = int(stats["caches"].split()[0])
+        res = int(stats["map"].split()[1])
+        pad = lambda n: (n + 15) // 16 * 16
+        info["table_bytes"] = caches * (pad(res) + pad(res * res)) * 4
+        info["caches"] = caches
+        info["map_resolution"] = res
+    with open(os.path.join(a.out, "results.json.tmp"), "w") as f:
+        json.dump(info, f, indent=1)
+    os.replace(os.path.join(a.out, "results.json.tmp"), os.path.join(a.out, "results.json"))
+
+
+# ---- report ---------------------------------------------------------------------------------------
+
+COLOURS = {"nee+bsdf": "#444444", "nee+bsdf+cache": "#1f77b4", "auto": "#d62728", "nee+cache": "#2ca02c",
+           "bsdf+cache": "#9467bd"}
+
+
+def svg_plot(title, series, path):
+    """Log-log relMSE against total seconds, one polyline per mode."""
+    import math
+    pts = [(x, y) for s in series.values() for x, y in s if y > 0]
+    if not pts:
+        return
+    W, H, L, R, T, B = 520, 360, 70, 150, 30, 50
+    lx = [math.log10(x) for x, _ in pts]
+    ly = [math.log10(y) for _, y in pts]
+    x0, x1 = math.floor(min(lx) * 4) / 4, math.ceil(max(lx) * 4) / 4 + 1e-9
+    y0, y1 = math.floor(min(ly) * 2) / 2, math.ceil(max(ly) * 2) / 2 + 1e-9
+    if x1 - x0 < 0.3:
+        x1 = x0 + 0.5
+    if y1 - y0 < 0.5:
+        y1 = y0 + 1
+
+    def X(v):
+        return L + (math.log10(v) - x0) / (x1 - x0) * (W - L - R)
+
+    def Y(v):
+        return T + (y1 - math.log10(v)) / (y1 - y0) * (H - T - B)
+
+    o = ['<svg xmlns="http://www.w3.org/2000/svg" width="%d" height="%d" font-family="sans-serif" font-size="12">'
+         % (W, H), '<rect width="100%" height="100%" fill="white"/>',
+         '<text x="%d" y="18" font-size="14">%s</text>' % (L, title)]
+    # Grid lines at powers of ten (and 2x, 5x for time).
+    e = math.floor(y0)
+    while e <= y1:
+        for m in (1, 2, 5):
+            v = m * 10 ** e
+            if y0 <= math.log10(v) <= y1:
+                o.append('<line x1="%d" x2="%d" y1="%.1f" y2="%.1f" stroke="#ddd"/>' % (L, W - R, Y(v), Y(v)))
+                o.append('<text x="%d" y="%.1f" text-anchor="end">%g</text>' % (L - 4, Y(v) + 4, v))
+        e += 1
+    e = math.floor(x0)
+    while e <= x1:
+        for m in (1, 2, 5):
+            v = m * 10 ** e
+            if x0 <= math.log10(v) <= x1:
+                o.append('<line x1="%.1f" x2="%.1f" y1="%d" y2="%d" stroke="#ddd"/>' % (X(v), X(v), T, H - B))
+                o.append('<text x="%.1f" y="%d" text-anchor="middle">%g</text>' % (X(v), H - B + 16, v))
+        e += 1
+    o.append('<text x="%d" y="%d" text-anchor="middle">total seconds (preprocessing included)</text>'
+             % ((L + W - R) // 2, H - 12))
+    o.append('<text transform="translate(16,%d) rotate(-90)" text-anchor="middle">relMSE</text>' % ((T + H - B) // 2))
+    for i, (mode, s) in enumerate(series.items()):
+        s = sorted((x, y) for x, y in s if y > 0)
+        if not s:
+            continue
+        c = COLOURS.get(mode, "#000")
+        o.append('<polyline fill="none" stroke="%s" stroke-width="2" points="%s"/>'
+                 % (c, " ".join("%.1f,%.1f" % (X(x), Y(y)) for x, y in s)))
+        for x, y in s:
+            o.append('<circle cx="%.1f" cy="%.1f" r="3" fill="%s"/>' % (X(x), Y(y), c))
+        o.append('<line x1="%d" x2="%d" y1="%d" y2="%d" stroke="%s" stroke-width="2"/>'
+                 % (W - R + 10, W - R + 30, T + 10 + 18 * i, T + 10 + 18 * i, c))
+        o.append('<text x="%d" y="%d">%s</text>' % (W - R + 36, T + 14 + 18 * i, mode))
+    o.append("</svg>")
+    with open(path, "w") as f:
+        f.write("\n".join(o) + "\n")
+
+
+def cmd_report(a):
+    results = []
+    for d in sorted(os.listdir(a.runs)):
+        p = os.path.join(a.runs, d, "results.json")
+        if os.path.exists(p):
+            with open(p) as f:
+                results.append(json.load(f))
+    os.makedirs(a.assets, exist_ok=True)
+    rel_assets = os.path.relpath(a.assets, os.path.dirname(a.output))
+    lines = ["## Run time against error (%s tier)" % a.tier, "",
+             "`make -f pipelines/bench.mk %s`, %s, %s threads. Every render of a scene is compared with an "
+             "unguided reference of the same size (spp in each section; its own noise is part of every relMSE, "
+             "so ratios are conservative). Time is the wall time of the whole `render` command plus, for guided "
+             "modes, the preprocessing (`trace-photons` + `place-caches` + `fill-caches`); each guided render "
+             "gets `--time` = budget - preprocessing. Efficiency = 1 / (relMSE x time); the ratio is taken "
+             "against nee+bsdf at the same budget (> 1: the mode wins at equal time). `auto` is the default "
+             "pipeline: a pilot inside the budget decides between guided and unguided sampling."
+             % (a.tier, results[0]["date"] if results else "-", results[0]["threads"] if results else "-"), ""]
+    summary = []
+    for r in results:
+        name = r["name"]
+        rows = [x for x in r["rows"] if "skipped" not in x]
+        modes = []
+        for x in r["rows"]:
+            if x["mode"] not in modes:
+                modes.append(x["mode"])
+        budgets = sorted({x["budget"] for x in r["rows"]})
+        by = {(x["mode"], x["budget"]): x for x in rows}
+        lines += ["### `%s` (%s, reference %s spp)" % (name, r["resolution"], r["reference_spp"]), ""]
+        if r["prep"]:
+            pp = r["prep_parts"]
+            lines.append("Preprocessing %.2f s (photons %.2f, caches %.2f, atlas %.2f); %d caches of %dx%d texels: "
+                         "atlas file %.1f MB, the renderer's table %.1f MB. Pipeline settings: %s."
+                         % (r["prep"], pp.get("photons", 0), pp.get("caches", 0), pp.get("atlas", 0),
+                            r["caches"], r["map_resolution"], r["map_resolution"], r["atlas_bytes"] / 1e6,
+                            r["table_bytes"] / 1e6, " ".join(r["pipeline_vars"]) or "pipelines/guided.mk defaults"))
+            lines.append("")
+        head = "| budget (s) | " + " | ".join("%s relMSE (spp) | eff. ratio" % m if m != "nee+bsdf" else
+                                              "%s relMSE (spp)" % m for m in modes) + " |"
+        lines += [head, "|" + "---|" * (1 + sum(2 if m != "nee+bsdf" else 1 for m in modes))]
+        for b in budgets:
+            cells = []
+            u = by.get(("nee+bsdf", b))
+            for m in modes:
+                x = by.get((m, b))
+                if not x:
+                    cells += ["n/a"] if m == "nee+bsdf" else ["n/a", "n/a"]
+                    continue
+                cells.append("%.4g (%d)" % (x["relmse"], x["spp"]))
+                if m != "nee+bsdf":
+                    if u:
+                        eff = (u["relmse"] * u["total"]) / (x["relmse"] * x["total"])
+                        cells.append("%.2f" % eff)
+                    else:
+                        cells.append("n/a")
+            lines.append("| %g | %s |" % (b, " | ".join(cells)))
+        lines.append("")
+        # Per-sample cost at the largest budget, and the auto mode's decisions.
+        bmax = budgets[-1]
+        u = by.get(("nee+bsdf", bmax))
+        for m in modes:
+            x = by.get((m, bmax))
+            if m == "nee+bsdf" or not x or not u:
+                continue
+            cost = (x["sampling_seconds"] / x["spp"]) / (u["sampling_seconds"] / u["spp"])
+            eff = (u["relmse"] * u["total"]) / (x["relmse"] * x["total"])
+            summary.append((name, m, bmax, eff, cost, r["prep"] / bmax, x.get("decision", "")))
+            lines.append("- %s at %g s: per-sample cost %.2fx nee+bsdf (sampling seconds per spp, pilot included), "
+                         "preprocessing %.1f %% of the budget%s" % (m, bmax, cost, 100 * r["prep"] / bmax,
+                                                                     ("; " + x["decision"]) if x.get("decision") else ""))
+        lines.append("")
+        series = {m: [(x["total"], x["relmse"]) for (mm, b), x in by.items() if mm == m] for m in modes}
+        svg = os.path.join(a.assets, "%s-%s.svg" % (a.tier, name))
+        svg_plot("%s (%s)" % (name, r["resolution"]), series, svg)
+        lines += ["![relMSE against time, %s](%s)" % (name, os.path.join(rel_assets, os.path.basename(svg))), ""]
+        # Crops at the largest budget, beside each other: the centre third of the image.
+        w, h = (int(v) for v in r["resolution"].split("x"))
+        cw, ch = max(16, w // 3), max(16, h // 3)
+        x0, y0 = (w - cw) // 2, (h - ch) // 2
+        crop = "%d,%d,%d,%d" % (x0, y0, x0 + cw, y0 + ch)
+        cells, heads = [], []
+        for m in modes + ["reference"]:
+            src = r["reference"] if m == "reference" else by.get((m, bmax), {}).get("image")
+            if not src or not os.path.exists(src):
+                continue
+            png = os.path.join(a.assets, "%s-%s-%s.png" % (a.tier, name, m.replace("+", "_")))
+            run([BIN + "/compare-images", src, "--srgb-png", png, "--crop", crop])
+            heads.append(m)
+            cells.append("![%s](%s)" % (m, os.path.join(rel_assets, os.path.basename(png))))
+        lines += ["Centre crops at %g s:" % bmax, "", "| " + " | ".join(heads) + " |",
+                  "|" + "---|" * len(heads), "| " + " | ".join(cells) + " |", ""]
+    top = ["### Summary at the largest budget", "",
+           "| scene | mode | budget (s) | efficiency vs nee+bsdf | per-sample cost | preprocessing share |",
+           "|---|---|---|---|---|---|"]
+    for name, m, b, eff, cost, share, _ in summary:
+        top.append("| `%s` | %s | %g | %.2f | %.2fx | %.1f %% |" % (name, m, b, eff, cost, 100 * share))
+    out = lines[:3] + top + [""] + lines[3:]
+    with open(a.output + ".tmp", "w") as f:
+        f.write("\n".join(out).rstrip() + "\n")
+    os.replace(a.output + ".tmp", a.output)
+    print("wrote %s" % a.output)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("reference")
+    r.add_argument("--scene", required=True)
+    r.add_argument("--scale", type=float, default=1.0)
+    r.add_argument("--spp", type=int, required=True)
+    r.add_argument("-o", "--output", required=True)
+    r.set_defaults(func=cmd_reference)
+    s = sub.add_parser("runs")
+    s.add_argument("--scene", required=True)
+    s.add_argument("--name", required=True)
+    s.add_argument("--scale", type=float, default=1.0)
+    s.add_argument("--budgets", required=True, help="comma-separated total seconds")
+    s.add_argument("--modes", required=True, help="comma-separated: nee+bsdf, auto, nee+bsdf+cache, ...")
+    s.add_argument("--reference", required=True)
+    s.add_argument("--out", required=True)
+    s.add_argument("pipeline_vars", nargs="*", help="VAR=value settings for pipelines/guided.mk")
+    s.set_defaults(func=cmd_runs)
+    t = sub.add_parser("report")
+    t.add_argument("--tier", required=True)
+    t.add_argument("--runs", required=True)
+    t.add_argument("-o", "--output", required=True)
+    t.add_argument("--assets", required=True)
+    t.set_defaults(func=cmd_report)
+    a = p.parse_args()
+    a.func(a)
+
+
+if __name__ == "__main__":
+    main()
