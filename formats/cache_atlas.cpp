@@ -63,6 +63,13 @@ std::string validate_cache_atlas(const CacheAtlas& a) {
     if (std::string e = h5::check_finite("position", a.position); !e.empty()) return e;
     if (std::string e = h5::check_unit("normal", a.normal); !e.empty()) return e;
     if (std::string e = h5::check_finite("radius", a.radius); !e.empty()) return e;
+    if (!a.caustic_share.empty()) {
+        if (std::string e = h5::check_rows("caustic_share", a.caustic_share.size(), "position", n); !e.empty()) return e;
+        for (size_t i = 0; i < n; ++i)
+            if (!(a.caustic_share[i] >= 0 && a.caustic_share[i] <= 1))
+                return "dataset 'caustic_share' is " + std::to_string(a.caustic_share[i]) + " in row " +
+                       std::to_string(i) + " (must be in [0, 1])";
+    }
     for (size_t i = 0; i < n; ++i) {
         if (a.radius[i] < 0) return "dataset 'radius' is negative in row " + std::to_string(i);
         if (a.usable[i] > 1) return "dataset 'usable' has the value " + std::to_string(a.usable[i]) + " in row " +
@@ -96,6 +103,9 @@ void write_cache_atlas(const std::string& path, const CacheAtlas& atlas, const s
     w.dataset("photon_count", atlas.photon_count, "photons", "photons that filled the map");
     w.dataset("radius", atlas.radius, 0, "world units", "gather radius");
     w.dataset("usable", atlas.usable, "bool", "1 = may guide; 0 = too few photons, never sampled");
+    if (!atlas.caustic_share.empty())
+        w.dataset("caustic_share", atlas.caustic_share, 0, "1",
+                  "share of the map's photon power that passed a specular bounce on its way from the light");
     w.commit();
 }
 
@@ -126,6 +136,7 @@ CacheAtlasFile read_cache_atlas(const std::string& path, const std::string& expe
     a.photon_count = r.u32s("photon_count");
     a.radius = r.floats("radius", 0);
     a.usable = r.u8s("usable");
+    if (r.has_dataset("caustic_share")) a.caustic_share = r.floats("caustic_share", 0);
     if (count != a.size())
         r.fail("attribute 'cache_count' is " + std::to_string(count) + " but dataset 'position' has " +
                std::to_string(a.size()) + " rows");

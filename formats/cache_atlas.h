@@ -38,6 +38,10 @@ struct CacheAtlas {
     // 1 = the renderer may guide with this cache; 0 = too few photons (its pdf/cdf row is either a
     // valid distribution or all zeros, and must not be sampled).
     std::vector<uint8_t> usable;
+    // Share of the power the map was filled with that passed a specular bounce on its way from the
+    // light (photon `caustic` flag), in [0, 1]: light next-event estimation cannot reach. Optional (empty when the
+    // photon map had no flags); the renderer guides only where it is significant.
+    std::vector<float> caustic_share;
     int k = 0;                   // photons gathered per cache (k nearest)
     std::string filter;          // smoothing filter applied to the maps: "none" or "gaussian"
     // The Gaussian's standard deviation in texel widths of the R x R map (0 with "none"); it is applied

@@ -12,6 +12,12 @@ std::string validate_photon_map(const PhotonMap& m) {
         if (std::string e = h5::check_rows(name, rows, "position", n); !e.empty()) return e;
     if (!m.bounces.empty())
         if (std::string e = h5::check_rows("bounces", m.bounces.size(), "position", n); !e.empty()) return e;
+    if (!m.caustic.empty()) {
+        if (std::string e = h5::check_rows("caustic", m.caustic.size(), "position", n); !e.empty()) return e;
+        for (size_t i = 0; i < n; ++i)
+            if (m.caustic[i] > 1) return "dataset 'caustic' has the value " + std::to_string(m.caustic[i]) +
+                                         " in row " + std::to_string(i) + " (0 or 1)";
+    }
     if (std::string e = h5::check_finite("position", m.position); !e.empty()) return e;
     if (std::string e = h5::check_unit("direction", m.direction); !e.empty()) return e;
     if (std::string e = h5::check_unit("normal", m.normal); !e.empty()) return e;
@@ -46,6 +52,9 @@ void write_photon_map(const std::string& path, const PhotonMap& map, const std::
     if (!map.bounces.empty())
         w.dataset("bounces", map.bounces, "count",
                   "surfaces the photon left before this hit (0 = direct light from an emitter), saturating at 255");
+    if (!map.caustic.empty())
+        w.dataset("caustic", map.caustic, "flag",
+                  "1 = the path from the light passed a specular bounce (light next-event estimation cannot reach)");
     w.commit();
 }
 
@@ -64,6 +73,7 @@ PhotonMapFile read_photon_map(const std::string& path, const std::string& expect
     m.power = r.rgbs("power");
     m.normal = r.vec3s("normal");
     if (r.has_dataset("bounces")) m.bounces = r.u8s("bounces");
+    if (r.has_dataset("caustic")) m.caustic = r.u8s("caustic");
     if (count != m.size())
         r.fail("attribute 'photon_count' is " + std::to_string(count) + " but dataset 'position' has " +
                std::to_string(m.size()) + " rows");

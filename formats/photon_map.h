@@ -27,6 +27,11 @@ struct PhotonMap {
     // Surfaces the photon left before this hit (0 = it came straight from a light, i.e. direct light;
     // saturates at 255). Optional in files (then empty): lets fill-caches leave direct light to NEE.
     std::vector<uint8_t> bounces;
+    // 1 = the photon's path from the light passed a specular bounce (a Dirac lobe: glass, mirror, smooth
+    // metal) before this hit: light that a path tracer gathers only when BSDF sampling happens to
+    // follow the specular chain to the emitter, since next-event estimation cannot connect through it
+    // -- what guiding is for. 0 or 1; optional in files (then empty).
+    std::vector<uint8_t> caustic;
     uint64_t emitted_paths = 0;  // N, the number of photon paths traced (> 0 whenever photons exist)
     int max_depth = -1;          // longest photon path, in segments (light -> first hit = 1); -1 = unlimited
 

@@ -174,3 +174,38 @@ TEST(GuidingPhotonFlux, EachLightsFirstHitsCarryItsFlux) {
 
 }  // namespace
 }  // namespace iris
+
+namespace iris {
+namespace {
+
+// The `caustic` flag marks photons whose path from the light passed a specular bounce (PhotonMap).
+// The furnace box is diffuse everywhere: no photon is flagged. In the caustic box (a glass sphere under
+// the light) some are, never a first hit (it has left no surface), and fill-caches turns the flags
+// into each cache's caustic share of power, which is 0 in the furnace and positive under the sphere.
+TEST(GuidingPhotonFlux, CausticFlagsMarkLightThatPassedASpecularBounce) {
+    const PhotonMap furnace = trace(load("render/furnace_box.xml"), 5000, -1, 3);
+    ASSERT_EQ(furnace.caustic.size(), furnace.size());
+    for (uint8_t f : furnace.caustic) ASSERT_EQ(f, 0);
+
+    const PhotonMap glass = trace(load("guiding/caustic_box.xml"), 20000, -1, 3);
+    ASSERT_EQ(glass.caustic.size(), glass.size());
+    size_t flagged = 0, flagged_after_flagged = 0;
+    for (size_t i = 0; i < glass.size(); ++i) {
+        ASSERT_LE(glass.caustic[i], 1);
+        if (!glass.caustic[i]) continue;
+        ++flagged;
+        EXPECT_GE(glass.bounces[i], 1) << "photon " << i << " flagged without having left a surface";
+        // The flag is kept for the rest of the path: the next photon of the same path (one more
+        // bounce, stored next in path order) is flagged too.
+        if (i + 1 < glass.size() && glass.bounces[i + 1] == glass.bounces[i] + 1) {
+            EXPECT_EQ(glass.caustic[i + 1], 1) << "photon " << i + 1;
+            ++flagged_after_flagged;
+        }
+    }
+    EXPECT_GT(flagged, glass.size() / 100);
+    EXPECT_LT(flagged, glass.size());
+    EXPECT_GT(flagged_after_flagged, 0u);
+}
+
+}  // namespace
+}  // namespace iris

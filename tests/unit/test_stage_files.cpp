@@ -80,6 +80,8 @@ PhotonMap make_photons(size_t n) {
         m.direction.push_back(dir);
         m.normal.push_back(nrm);
         m.power.push_back(RGB(rng.next_float(), rng.next_float(), rng.next_float()) * 1e-3f);
+        m.bounces.push_back(uint8_t(i % 5));
+        m.caustic.push_back(uint8_t(i % 5 > 1 && i % 3 == 0));
     }
     m.emitted_paths = n * 3 + 1;
     m.max_depth = 12;
@@ -109,6 +111,7 @@ CacheAtlas make_atlas(size_t n, int resolution) {
         a.normal.push_back(random_unit(rng));
         a.photon_count.push_back(uint32_t(100 + i));
         a.radius.push_back(0.1f + rng.next_float());
+        a.caustic_share.push_back(i % 4 == 0 ? 0.0f : rng.next_float());
         const bool usable = i != 2;
         a.usable.push_back(usable ? 1 : 0);
         std::vector<double> w(n_tex);
@@ -569,6 +572,8 @@ TEST(StageFilePhotonMap, RoundTripsEveryValue) {
     ASSERT_EQ(r.size(), m.size());
     EXPECT_EQ(r.emitted_paths, m.emitted_paths);
     EXPECT_EQ(r.max_depth, m.max_depth);
+    EXPECT_EQ(r.bounces, m.bounces);
+    EXPECT_EQ(r.caustic, m.caustic);
     for (size_t i = 0; i < m.size(); ++i)
         for (int c = 0; c < 3; ++c) {
             // float32 in, float32 out: exact.
@@ -753,6 +758,7 @@ TEST(StageFileCacheAtlas, RoundTripsEveryValue) {
     EXPECT_EQ(r.photon_count, a.photon_count);
     EXPECT_EQ(r.radius, a.radius);
     EXPECT_EQ(r.usable, a.usable);
+    EXPECT_EQ(r.caustic_share, a.caustic_share);
     for (size_t i = 0; i < a.size(); ++i)
         for (int k = 0; k < 3; ++k) {
             EXPECT_EQ(r.position[i][k], a.position[i][k]);
@@ -772,6 +778,34 @@ TEST(StageFileCacheAtlas, RoundTripsEveryValue) {
     H5Pclose(dcpl);
     H5Dclose(d);
     H5Fclose(fh);
+}
+
+TEST(StageFileOptionalFlags, AbsentWhenNotWrittenAndRefusedOutOfRange) {
+    TempDir dir;
+    // Written without the optional datasets, read back without them (older files stay valid).
+    PhotonMap m = make_photons(20);
+    m.bounces.clear();
+    m.caustic.clear();
+    write_photon_map(dir.file("plain.h5"), m, kFingerprint, make_provenance());
+    PhotonMap r = read_photon_map(dir.file("plain.h5"), kFingerprint).photons;
+    EXPECT_TRUE(r.bounces.empty());
+    EXPECT_TRUE(r.caustic.empty());
+    // A flag other than 0/1, a share outside [0, 1], and a wrong row count are refused by the writer.
+    m = make_photons(20);
+    m.caustic[7] = 2;
+    expect_contains(error_of([&] { write_photon_map(dir.file("bad.h5"), m, kFingerprint, make_provenance()); }),
+                    "dataset 'caustic' has the value 2 in row 7");
+    m.caustic.pop_back();
+    expect_contains(error_of([&] { write_photon_map(dir.file("bad.h5"), m, kFingerprint, make_provenance()); }),
+                    "caustic");
+    CacheAtlas a = make_atlas(6, 8);
+    a.caustic_share[3] = 1.5f;
+    expect_contains(error_of([&] { write_cache_atlas(dir.file("bad.h5"), a, kFingerprint, make_provenance()); }),
+                    "dataset 'caustic_share' is 1.5");
+    a.caustic_share[3] = std::nanf("");
+    expect_contains(error_of([&] { write_cache_atlas(dir.file("bad.h5"), a, kFingerprint, make_provenance()); }),
+                    "caustic_share");
+    EXPECT_FALSE(std::filesystem::exists(dir.file("bad.h5")));
 }
 
 TEST(StageFileCacheAtlas, RefusesCdfNotEndingAtOne) {

@@ -51,6 +51,8 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
     atlas.photon_count.assign(caches.size(), 0);
     atlas.radius.assign(caches.size(), 0.0f);
     atlas.usable.assign(caches.size(), 0);
+    const bool flags = !photons.caustic.empty();
+    if (flags) atlas.caustic_share.assign(caches.size(), 0.0f);
     atlas.k = int(o.k);
     atlas.filter = o.filter_sigma > 0 ? "gaussian" : "none";
     atlas.filter_sigma = o.filter_sigma;
@@ -104,6 +106,7 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
             gather(s, caches.position[c]);
             uint32_t used = 0;
             float r2 = 0;
+            double total_power = 0, caustic_power = 0;
             for (const auto& [p, d2] : s.found) {
                 // Same surface, same side (DESIGN 4.6): photon normals face the side they arrived from.
                 if (dot(photons.normal[p], n) < o.normal_cos) continue;
@@ -111,10 +114,13 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
                 float power = luminance(photons.power[p]);
                 if (!(power > 0)) continue;
                 s.map.splat(frame.to_local(photons.direction[p]), power);
+                total_power += power;
+                if (flags && photons.caustic[p]) caustic_power += power;
                 ++used;
                 r2 = std::max(r2, d2);
             }
             atlas.photon_count[c] = used;
+            if (flags && total_power > 0) atlas.caustic_share[c] = float(std::min(1.0, caustic_power / total_power));
             atlas.radius[c] = std::sqrt(r2);
             atlas.usable[c] = used >= o.min_photons ? 1 : 0;
             photons_used += used;

@@ -86,6 +86,16 @@ std::string describe_photon_map(const PhotonMap& m) {
                  fmt("%.1f %%", 100.0 * double(hist[b]) / double(std::max<size_t>(1, m.size())));
         s += line("bounces before the hit", h);
     }
+    if (!m.caustic.empty()) {
+        // Light the path tracer can only find through specular chains (NEE cannot connect through them).
+        double all = 0, caustic = 0;
+        for (size_t i = 0; i < m.size(); ++i) {
+            const double p = luminance(m.power[i]);
+            all += p;
+            if (m.caustic[i]) caustic += p;
+        }
+        s += line("caustic (via specular)", fmt("%.1f %% of the stored power", all > 0 ? 100.0 * caustic / all : 0.0));
+    }
     return s;
 }
 
@@ -107,6 +117,9 @@ std::string describe_cache_atlas(const CacheAtlas& a) {
     s += line("k, filter, sigma, floor",
               std::to_string(a.k) + ", " + a.filter + ", " + fmt("%.3g", a.filter_sigma) + ", " + fmt("%.3g", a.floor));
     s += line("memory of the maps", mib(double(a.pdf.size() + a.cdf.size()) * sizeof(float)) + " (pdf + cdf)");
+    // What render holds: per cache the row ends and the cdf, each padded to 16 floats (tools/render/guide.h).
+    const auto pad16 = [](size_t v) { return (v + 15) / 16 * 16; };
+    s += line("render's table", mib(double(a.size() * (pad16(size_t(a.resolution)) + pad16(n))) * sizeof(float)));
     std::vector<double> photons, radius, peak, coverage;
     for (size_t i = 0; i < a.size(); ++i) {
         photons.push_back(a.photon_count[i]);
@@ -129,6 +142,10 @@ std::string describe_cache_atlas(const CacheAtlas& a) {
     s += line("radius min/med/p90/max", spread(radius));
     s += line("peak / uniform", spread(peak, "%.3g") + "   (usable caches)");
     s += line("coverage of the sphere", spread(coverage, "%.3f") + "   (exp(entropy)/texels; 1 = uniform)");
+    if (!a.caustic_share.empty()) {
+        std::vector<double> share(a.caustic_share.begin(), a.caustic_share.end());
+        s += line("caustic share", spread(share, "%.3f") + "   (of each map's power, via specular bounces)");
+    }
     return s;
 }
 

@@ -364,6 +364,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     if (opt.auto_guide && ps.guide) {
         // A pilot of ~3 % of a time budget (or the minimum for a fixed spp).
         decision = decide_guiding(scene, camera, width, height, opt.seed, ps, timed ? 0.03 * opt.time : 0.0);
+        if (!opt.quiet) std::fprintf(stderr, "render: %s\n", describe(decision).c_str());
         if (!decision.guide) {
             ps.guide = nullptr;
             ps.mode = GuideMode::NeeBsdf;

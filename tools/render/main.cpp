@@ -90,7 +90,6 @@ int main(int argc, char** argv) {
         if (opt.snapshot_interval > 0) opt.snapshot = [&](const iris::Image& img) { iris::write_exr(output, img); };
         iris::RenderStats stats;
         iris::Image img = iris::render_image(scene, opt, &stats);
-        if (stats.decided && !opt.quiet) std::fprintf(stderr, "render: %s\n", iris::describe(stats.decision).c_str());
         iris::write_exr(output, img);
         if (!opt.quiet)
             std::fprintf(stderr, "render: wrote %s (%dx%d, %d spp, %.2f s, %.2f Mpaths/s, %.2f Mrays/s%s)\n",

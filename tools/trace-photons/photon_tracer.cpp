@@ -21,6 +21,7 @@ struct Photon {
     Vec3 position, direction, normal;
     RGB power;
     uint8_t bounces;
+    uint8_t caustic;  // the path from the light passed a Dirac lobe (PhotonMap::caustic)
 };
 
 constexpr uint64_t kChunk = 1024;  // paths per work item; photons of a chunk are kept in path order
@@ -40,6 +41,7 @@ void trace_one(const Scene& scene, const PhotonOptions& o, uint64_t index, std::
     // The emitter's geometry is at most the scene's scale: the rounding of e.p is relative to that.
     ray.o = (e.n.x == 0 && e.n.y == 0 && e.n.z == 0) ? e.p : offset_ray_origin(e.p, e.n, e.d, scene.scale());
     SurfaceHit hit;
+    bool after_delta = false;  // some bounce so far was specular
     for (int depth = 1; o.max_depth < 0 || depth <= o.max_depth; ++depth) {
         if (!scene.intersect(ray, &hit)) return;
         const Bsdf& bsdf = scene.bsdfs[hit.bsdf];
@@ -51,7 +53,7 @@ void trace_one(const Scene& scene, const PhotonOptions& o, uint64_t index, std::
             }
             // The normal is stored facing the side the photon arrived from (the photon map contract).
             out.push_back({hit.p, wi_world, dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng, beta,
-                           uint8_t(std::min(depth - 1, 255))});
+                           uint8_t(std::min(depth - 1, 255)), uint8_t(after_delta)});
         }
         if (o.max_depth >= 0 && depth == o.max_depth) return;
         Vec3 wi = hit.frame.to_local(wi_world);
@@ -73,6 +75,7 @@ void trace_one(const Scene& scene, const PhotonOptions& o, uint64_t index, std::
             next /= q;
         }
         beta = next;
+        after_delta = after_delta || bs.delta;
         if (!(max_component(beta) > cutoff)) return;
         ray = spawn_ray(hit, wo_world);
     }
@@ -115,6 +118,7 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
     photons.normal.reserve(total);
     photons.power.reserve(total);
     photons.bounces.reserve(total);
+    photons.caustic.reserve(total);
     for (auto& part : parts) {
         for (const Photon& ph : part) {
             photons.position.push_back(ph.position);
@@ -122,6 +126,7 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
             photons.normal.push_back(ph.normal);
             photons.power.push_back(ph.power);
             photons.bounces.push_back(ph.bounces);
+            photons.caustic.push_back(ph.caustic);
         }
         std::vector<Photon>().swap(part);
     }
