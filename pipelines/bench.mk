@@ -1,7 +1,7 @@
 # Run time against error for the seed scenes (issue 4): references, ladders of equal-time renders per
 # mode, and the report (docs/benchmarks/<tier>.md with SVG plots and image crops).
 #
-#   make -f pipelines/bench.mk quick        # half resolution, budgets 8/16/32 s, nee+bsdf and auto (~13 min + references)
+#   make -f pipelines/bench.mk quick        # half resolution, budgets 6/12/24 s, 3 modes (~15 min + references)
 #   make -f pipelines/bench.mk full         # full resolution, budgets 15..120 s, all modes (hours)
 #   make -f pipelines/bench.mk references TIER=quick   # only the references
 #
@@ -30,8 +30,8 @@ MODES ?= nee+bsdf,auto,nee+bsdf+cache,nee+cache,bsdf+cache
 REF_SPP ?= 8192
 else
 SCALE ?= 0.5
-BUDGETS ?= 8,16,32
-MODES ?= nee+bsdf,auto
+BUDGETS ?= 6,12,24
+MODES ?= nee+bsdf,auto,nee+bsdf+cache
 REF_SPP ?= 2048
 endif
 # Settings passed to pipelines/guided.mk for the preprocessing (empty: its defaults).
