@@ -63,12 +63,11 @@ std::string validate_cache_atlas(const CacheAtlas& a) {
     if (std::string e = h5::check_finite("position", a.position); !e.empty()) return e;
     if (std::string e = h5::check_unit("normal", a.normal); !e.empty()) return e;
     if (std::string e = h5::check_finite("radius", a.radius); !e.empty()) return e;
-    for (auto [name, share] : {std::pair{"caustic_share", &a.caustic_share}, std::pair{"direct_share", &a.direct_share}}) {
-        if (share->empty()) continue;
-        if (std::string e = h5::check_rows(name, share->size(), "position", n); !e.empty()) return e;
+    if (!a.caustic_share.empty()) {
+        if (std::string e = h5::check_rows("caustic_share", a.caustic_share.size(), "position", n); !e.empty()) return e;
         for (size_t i = 0; i < n; ++i)
-            if (!((*share)[i] >= 0 && (*share)[i] <= 1))
-                return "dataset '" + std::string(name) + "' is " + std::to_string((*share)[i]) + " in row " +
+            if (!(a.caustic_share[i] >= 0 && a.caustic_share[i] <= 1))
+                return "dataset 'caustic_share' is " + std::to_string(a.caustic_share[i]) + " in row " +
                        std::to_string(i) + " (must be in [0, 1])";
     }
     for (size_t i = 0; i < n; ++i) {
@@ -107,9 +106,6 @@ void write_cache_atlas(const std::string& path, const CacheAtlas& atlas, const s
     if (!atlas.caustic_share.empty())
         w.dataset("caustic_share", atlas.caustic_share, 0, "1",
                   "share of the map's photon power that passed a specular bounce on its way from the light");
-    if (!atlas.direct_share.empty())
-        w.dataset("direct_share", atlas.direct_share, 0, "1",
-                  "share of the power gathered around the cache that came straight from an emitter");
     w.commit();
 }
 
@@ -141,7 +137,6 @@ CacheAtlasFile read_cache_atlas(const std::string& path, const std::string& expe
     a.radius = r.floats("radius", 0);
     a.usable = r.u8s("usable");
     if (r.has_dataset("caustic_share")) a.caustic_share = r.floats("caustic_share", 0);
-    if (r.has_dataset("direct_share")) a.direct_share = r.floats("direct_share", 0);
     if (count != a.size())
         r.fail("attribute 'cache_count' is " + std::to_string(count) + " but dataset 'position' has " +
                std::to_string(a.size()) + " rows");

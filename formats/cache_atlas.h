@@ -42,11 +42,6 @@ struct CacheAtlas {
     // light (photon `caustic` flag), in [0, 1]: light next-event estimation cannot reach. Optional (empty when the
     // photon map had no flags); the renderer guides only where it is significant.
     std::vector<float> caustic_share;
-    // Share of the power gathered around the cache (all photons on the served side, before direct light
-    // is left out of the map) that came straight from an emitter, in [0, 1]. Where it is high, next-event
-    // estimation and BSDF sampling already handle most of the light and the map (indirect light only)
-    // deserves a small share of the samples. Optional (empty when the photon map had no `bounces`).
-    std::vector<float> direct_share;
     int k = 0;                   // photons gathered per cache (k nearest)
     std::string filter;          // smoothing filter applied to the maps: "none" or "gaussian"
     // The Gaussian's standard deviation in texel widths of the R x R map (0 with "none"); it is applied

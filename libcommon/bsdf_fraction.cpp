@@ -35,11 +35,7 @@ BsdfFractionChooser::BsdfFractionChooser(int R, double floor, float min_alpha) {
     alphas_.push_back(1.0f);
 }
 
-BsdfFractionChoice BsdfFractionChooser::choose(const float* pdf, float direct_share) const {
-    const double d = std::isfinite(direct_share) ? std::clamp(double(direct_share), 0.0, 1.0) : 0.0;
-    // sum of Omega c_k over the upper hemisphere (1 up to the texel quadrature), to normalise c like g.
-    double c_total = 0;
-    for (float c : cosine_) c_total += double(c) * omega_;
+BsdfFractionChoice BsdfFractionChooser::choose(const float* pdf) const {
     // g: the map without its floor, on the upper hemisphere, normalised to integrate to 1.
     double total = 0;
     for (int k = 0; k < N_; ++k)
@@ -53,7 +49,7 @@ BsdfFractionChoice BsdfFractionChooser::choose(const float* pdf, float direct_sh
     for (int k = 0; k < N_; ++k) {
         const float c = cosine_[size_t(k)];
         if (!(c > 0)) continue;
-        const double g = d * c / c_total + (1.0 - d) * std::max(0.0f, pdf[k] - floor_density_) * g_scale;
+        const double g = std::max(0.0f, pdf[k] - floor_density_) * g_scale;
         if (!(g > 0)) continue;
         for (size_t a = 0; a < na; ++a) {
             const double p = alphas_[a] * c + (1.0 - alphas_[a]) * pdf[k];
@@ -68,7 +64,6 @@ BsdfFractionChoice BsdfFractionChooser::choose(const float* pdf, float direct_sh
     BsdfFractionChoice out;
     out.alpha = alphas_[best];
     out.gain = float(variance(na - 1) / variance(best));
-    out.saved = float(variance(na - 1) - variance(best));
     return out;
 }
 

@@ -23,21 +23,14 @@ namespace iris {
 struct BsdfFractionChoice {
     float alpha = 1.0f;  // probability of BSDF sampling, in [min_alpha, 1]
     float gain = 1.0f;   // predicted variance(alpha = 1) / variance(alpha), >= 1
-    // Predicted variance(alpha = 1) - variance(alpha), relative to the integral squared: what guiding
-    // saves. A large gain on an already tiny variance saves nothing worth a lookup.
-    float saved = 0.0f;
 };
 
 class BsdfFractionChooser {
 public:
     // R: map resolution; floor: the atlas's uniform floor weight f (CacheAtlas::floor), in [0, 1).
     BsdfFractionChooser(int resolution, double floor, float min_alpha = 0.1f);
-    // pdf_row: the cache's N = R^2 densities per steradian (CacheAtlas::pdf_row). direct_share: the share
-    // d of the light arriving at the cache straight from emitters (CacheAtlas::direct_share), which the
-    // map leaves out; the continuation's integrand is then modelled as d c + (1 - d) g (direct light
-    // taken as well served by BSDF sampling, i.e. shaped like c), so that where direct light dominates
-    // the map gets a small share or none.
-    BsdfFractionChoice choose(const float* pdf_row, float direct_share = 0.0f) const;
+    // pdf_row: the cache's N = R^2 densities per steradian (CacheAtlas::pdf_row).
+    BsdfFractionChoice choose(const float* pdf_row) const;
 
 private:
     int N_ = 0;

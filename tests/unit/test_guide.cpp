@@ -159,14 +159,6 @@ TEST(BsdfFraction, CosineMapGainsNothingAndPeakedMapGainsMuch) {
     EXPECT_LE(p.alpha, 0.3f);
     EXPECT_GE(p.alpha, 0.2f);  // never below the defensive minimum
     EXPECT_GT(p.gain, 5.0f);
-    EXPECT_GT(p.saved, 1.0f);
-    // The same cache where 95 % of the light arrives straight from emitters (which the map leaves out):
-    // the map deserves fewer samples, and what it would save is too little to pay for a lookup.
-    const BsdfFractionChoice pd = chooser.choose(peaked.data(), 0.95f);
-    EXPECT_GT(pd.alpha, p.alpha);
-    EXPECT_LT(pd.saved, 0.1f);
-    // All direct: nothing for the map to do.
-    EXPECT_EQ(chooser.choose(peaked.data(), 1.0f).alpha, 1.0f);
     EXPECT_THROW(BsdfFractionChooser(R, 1.0, 0.2f), std::invalid_argument);
     EXPECT_THROW(BsdfFractionChooser(R, 0.1, 0.0f), std::invalid_argument);
 }

@@ -112,7 +112,6 @@ CacheAtlas make_atlas(size_t n, int resolution) {
         a.photon_count.push_back(uint32_t(100 + i));
         a.radius.push_back(0.1f + rng.next_float());
         a.caustic_share.push_back(i % 4 == 0 ? 0.0f : rng.next_float());
-        a.direct_share.push_back(i % 5 == 0 ? 1.0f : rng.next_float());
         const bool usable = i != 2;
         a.usable.push_back(usable ? 1 : 0);
         std::vector<double> w(n_tex);
@@ -760,7 +759,6 @@ TEST(StageFileCacheAtlas, RoundTripsEveryValue) {
     EXPECT_EQ(r.radius, a.radius);
     EXPECT_EQ(r.usable, a.usable);
     EXPECT_EQ(r.caustic_share, a.caustic_share);
-    EXPECT_EQ(r.direct_share, a.direct_share);
     for (size_t i = 0; i < a.size(); ++i)
         for (int k = 0; k < 3; ++k) {
             EXPECT_EQ(r.position[i][k], a.position[i][k]);
@@ -807,10 +805,6 @@ TEST(StageFileOptionalFlags, AbsentWhenNotWrittenAndRefusedOutOfRange) {
     a.caustic_share[3] = std::nanf("");
     expect_contains(error_of([&] { write_cache_atlas(dir.file("bad.h5"), a, kFingerprint, make_provenance()); }),
                     "caustic_share");
-    a.caustic_share[3] = 0.5f;
-    a.direct_share[1] = -0.25f;
-    expect_contains(error_of([&] { write_cache_atlas(dir.file("bad.h5"), a, kFingerprint, make_provenance()); }),
-                    "dataset 'direct_share' is -0.25");
     EXPECT_FALSE(std::filesystem::exists(dir.file("bad.h5")));
 }
 

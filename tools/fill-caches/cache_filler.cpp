@@ -53,7 +53,6 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
     atlas.usable.assign(caches.size(), 0);
     const bool flags = !photons.caustic.empty();
     if (flags) atlas.caustic_share.assign(caches.size(), 0.0f);
-    if (!photons.bounces.empty()) atlas.direct_share.assign(caches.size(), 0.0f);
     atlas.k = int(o.k);
     atlas.filter = o.filter_sigma > 0 ? "gaussian" : "none";
     atlas.filter_sigma = o.filter_sigma;
@@ -107,16 +106,13 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
             gather(s, caches.position[c]);
             uint32_t used = 0;
             float r2 = 0;
-            double total_power = 0, caustic_power = 0, direct_power = 0;
+            double total_power = 0, caustic_power = 0;
             for (const auto& [p, d2] : s.found) {
                 // Same surface, same side (DESIGN 4.6): photon normals face the side they arrived from.
                 if (dot(photons.normal[p], n) < o.normal_cos) continue;
+                if (skip_direct && photons.bounces[p] == 0) continue;
                 float power = luminance(photons.power[p]);
                 if (!(power > 0)) continue;
-                if (!photons.bounces.empty() && photons.bounces[p] == 0) {
-                    direct_power += power;
-                    if (skip_direct) continue;
-                }
                 s.map.splat(frame.to_local(photons.direction[p]), power);
                 total_power += power;
                 if (flags && photons.caustic[p]) caustic_power += power;
@@ -125,10 +121,6 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
             }
             atlas.photon_count[c] = used;
             if (flags && total_power > 0) atlas.caustic_share[c] = float(std::min(1.0, caustic_power / total_power));
-            // (total_power counts the direct photons too when the map keeps them, --direct.)
-            const double gathered = total_power + (skip_direct ? direct_power : 0.0);
-            if (!atlas.direct_share.empty() && gathered > 0)
-                atlas.direct_share[c] = float(std::min(1.0, direct_power / gathered));
             atlas.radius[c] = std::sqrt(r2);
             atlas.usable[c] = used >= o.min_photons ? 1 : 0;
             photons_used += used;

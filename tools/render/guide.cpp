@@ -83,9 +83,8 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
         ++summary_.usable;
         float alpha = o.bsdf_fraction;
         if (adaptive) {
-            const BsdfFractionChoice choice =
-                chooser.choose(atlas_.pdf_row(c), atlas_.direct_share.empty() ? 0.0f : atlas_.direct_share[c]);
-            if (choice.gain < o.min_gain || choice.saved < o.min_saved) continue;
+            const BsdfFractionChoice choice = chooser.choose(atlas_.pdf_row(c));
+            if (choice.gain < o.min_gain) continue;
             alpha = choice.alpha;
         }
         alpha_[c] = alpha;

@@ -35,8 +35,6 @@ struct GuideOptions {
     // In [0, 1): this constant for every usable cache (the thesis's setting; for parameter studies).
     float bsdf_fraction = -1.0f;
     float min_gain = 1.25f;
-    // ... and whose predicted saving of relative variance (BsdfFractionChoice::saved) is below this.
-    float min_saved = 0.1f;
 };
 
 // What the guide decided at load time, for the render's report.
@@ -51,7 +49,7 @@ class Guide {
 public:
     Guide(CacheAtlas atlas, const GuideOptions& options);
     // Constant BSDF fraction alpha in [0, 1) for every usable cache (no per-cache choice).
-    Guide(CacheAtlas atlas, float bsdf_fraction) : Guide(std::move(atlas), GuideOptions{bsdf_fraction, 1.0f, 0.0f}) {}
+    Guide(CacheAtlas atlas, float bsdf_fraction) : Guide(std::move(atlas), GuideOptions{bsdf_fraction, 1.0f}) {}
 
     // The cache serving a vertex at p whose surface side (the side the path arrives from) has normal
     // n_side, or -1 when none serves: a guiding cache within a distance of its own gather radius (times
