@@ -221,13 +221,6 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
 
 namespace {
 
-// A short pilot of one technique set on a sparse grid of pixels: how noisy its samples are relative to
-// the pixel value, and how long a sample takes. Efficiency = 1 / (noise * time per sample).
-struct PilotMeasure {
-    double rel_variance = 0;   // mean over the pilot pixels of the per-sample variance / (mean^2 + 0.01)
-    double seconds_per_sample = 0;
-};
-
 // Per pilot pixel: sum and sum of squares of the luminance of its samples.
 struct PilotPixel {
     double sum = 0, sum2 = 0;
