@@ -324,7 +324,7 @@ def cmd_report(a):
     for name, m, b, eff, eff_trim, cost, share, decision in summary:
         top.append("| `%s` | %s | %g | %.2f | %.2f | %.2fx | %.1f %% | %s |"
                    % (name, m, b, eff, eff_trim, cost, 100 * share, decision.split(":")[0] if decision else ""))
-    out = lines[:3] + top + [""] + lines[3:]
+    out = lines[:3] + [""] + top + [""] + lines[3:]
     with open(a.output + ".tmp", "w") as f:
         f.write("\n".join(out).rstrip() + "\n")
     os.replace(a.output + ".tmp", a.output)
