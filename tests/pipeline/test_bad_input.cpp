@@ -253,6 +253,10 @@ const BadInputCase kCases[] = {
     {"RenderNegativeThreads", "render", "--threads -1", "{in}/valid.xml -t -1 -o {out}", "--threads"},
     {"RenderNegativeSnapshot", "render", "--snapshot -1", "{in}/valid.xml --snapshot -1 -o {out}", "--snapshot"},
     {"RenderBsdfFraction", "render", "--bsdf-fraction 1.5", "{in}/valid.xml --atlas {in}/atlas.h5 --bsdf-fraction 1.5 -o {out}", "--bsdf-fraction"},
+    {"RenderBsdfFractionWord", "render", "--bsdf-fraction neither auto nor a number", "{in}/valid.xml --atlas {in}/atlas.h5 --bsdf-fraction half -o {out}", "--bsdf-fraction"},
+    {"RenderMinGainBelowOne", "render", "--min-gain 0.5", "{in}/valid.xml --atlas {in}/atlas.h5 --min-gain 0.5 -o {out}", "--min-gain"},
+    {"RenderNegativeGuideVertices", "render", "--guide-vertices -1", "{in}/valid.xml --atlas {in}/atlas.h5 --guide-vertices -1 -o {out}", "--guide-vertices"},
+    {"RenderAutoWithoutAtlas", "render", "--mode auto without --atlas", "{in}/valid.xml --mode auto -o {out}", "--atlas"},
     {"RenderUnknownMode", "render", "--mode that does not exist", "{in}/valid.xml --mode bogus -o {out}", "bogus"},
     {"RenderCacheModeWithoutAtlas", "render", "--mode nee+cache without --atlas", "{in}/valid.xml --mode nee+cache -o {out}", "--atlas"},
     {"RenderUnknownFlag", "render", "a flag that does not exist", "{in}/valid.xml --no-such-flag -o {out}", "--no-such-flag"},
@@ -340,6 +344,8 @@ const BadInputCase kCases[] = {
     {"CompareTruncatedExr", "compare-images", "EXR cut off midway", "{in}/truncated_image.exr {in}/image.exr -o {out}", "truncated_image.exr"},
     {"CompareSizeMismatch", "compare-images", "images of different sizes", "{in}/small.exr {in}/image.exr -o {out}", "size"},
     {"CompareBadMask", "compare-images", "--mask not x0,y0,x1,y1", "{in}/image.exr {in}/image.exr --mask 1,2 -o {out}", "--mask"},
+    {"CompareBadCrop", "compare-images", "--crop not x0,y0,x1,y1", "{in}/image.exr --srgb-png {out} --crop 1,2", "--crop"},
+    {"CompareCropOutside", "compare-images", "--crop beyond the image", "{in}/image.exr --srgb-png {out} --crop 0,0,9999,9999", "--crop"},
     {"CompareOutputDirMissing", "compare-images", "error image folder does not exist", "{in}/image.exr {in}/image.exr -o /nonexistent-dir/e.png", "/nonexistent-dir/e.png"},
 };
 // clang-format on

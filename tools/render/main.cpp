@@ -69,6 +69,7 @@ int main(int argc, char** argv) {
         }
         if (!(guide_options.min_gain >= 1 && std::isfinite(guide_options.min_gain)))
             throw std::runtime_error("--min-gain must be >= 1");
+        if (opt.guide_vertices < 0) throw std::runtime_error("--guide-vertices must be >= 0 (0 = every vertex)");
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
         opt.command_line = iris::join_args(argc, argv);
