@@ -116,6 +116,7 @@ $(OUT)/comparison.txt: $(OUT)/guided.exr $(OUT)/unguided.exr $(REF)
 	   echo "reference: $(REF) ($(REF_SPP) spp, unguided)"; \
 	   echo "preprocessing: $$(cat $(OUT)/photons.seconds) s photons + $$(cat $(OUT)/caches.seconds) s caches + $$(cat $(OUT)/atlas.seconds) s atlas"; \
 	   echo; echo "== guided ($(MODE)), $(TIME) s render + preprocessing =="; \
+	   $(BIN)/compare-images $(OUT)/guided.exr --metadata | sed -n 's/^iris:auto_guide /auto: /p'; \
 	   $(BIN)/compare-images $(OUT)/guided.exr $(REF) -o $(OUT)/guided.error.png --error-scale 0.05; \
 	   echo; echo "== unguided (nee+bsdf), same total time =="; \
 	   $(BIN)/compare-images $(OUT)/unguided.exr $(REF) -o $(OUT)/unguided.error.png --error-scale 0.05; \
