@@ -64,6 +64,18 @@ struct Ray {
     float tmin = 0, tmax = kInf;
 };
 
+// The primary ray through film position (fx, fy) of a prepared camera (camera_prepare), clipped to the
+// camera's near/far planes as Mitsuba does: distances along the view axis, divided by the cosine.
+inline Ray camera_ray(const Camera& c, float fx, float fy, int width, int height) {
+    Ray ray;
+    ray.o = c.origin;
+    ray.d = camera_direction(c, fx, fy, width, height);
+    const float cos_fwd = dot(ray.d, c.forward);
+    ray.tmin = c.near_clip / cos_fwd;
+    ray.tmax = c.far_clip / cos_fwd;
+    return ray;
+}
+
 // Everything the integrator needs to know about a surface hit.
 struct SurfaceHit {
     Vec3 p;          // position, recomputed from the primitive (not o + t d) for precision

@@ -204,9 +204,8 @@ int cache_for_pixel(const Scene& scene, const CacheAtlas& a, int x, int y, int w
     Guide guide(a, 0.5f);
     Camera camera = scene.camera;
     camera_prepare(camera, width, height);
-    Ray ray;
-    ray.o = camera.origin;
-    ray.d = camera_direction(camera, x + 0.5f, y + 0.5f, width, height);
+    // The pixel centre's primary ray, clipped like the renderer's.
+    Ray ray = camera_ray(camera, x + 0.5f, y + 0.5f, width, height);
     for (int bounce = 0; bounce < 16; ++bounce) {
         SurfaceHit hit;
         if (!scene.intersect(ray, &hit)) {

@@ -20,12 +20,7 @@ namespace {
 // The first non-specular surface seen through film position (fx, fy), following specular bounces.
 bool camera_cache(const Scene& scene, const Camera& cam, float fx, float fy, int w, int h, int max_specular,
                   Rng& rng, Vec3* position, Vec3* normal) {
-    Ray ray;
-    ray.o = cam.origin;
-    ray.d = camera_direction(cam, fx, fy, w, h);
-    float c = dot(ray.d, cam.forward);
-    ray.tmin = cam.near_clip / c;
-    ray.tmax = cam.far_clip / c;
+    Ray ray = camera_ray(cam, fx, fy, w, h);
     SurfaceHit hit;
     for (int bounce = 0; bounce <= max_specular; ++bounce) {
         if (!scene.intersect(ray, &hit)) return false;

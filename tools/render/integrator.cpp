@@ -232,7 +232,6 @@ double run_pilot(const Scene& scene, const Camera& camera, int width, int height
                  uint64_t seed, const PathSettings& ps, std::vector<PilotPixel>& acc) {
     const int px = (width + stride - 1) / stride, py = (height + stride - 1) / stride;
     acc.resize(size_t(px) * size_t(py));
-    const float fwd_near = scene.camera.near_clip, fwd_far = scene.camera.far_clip;
     const auto t0 = std::chrono::steady_clock::now();
     tbb::parallel_for(0, py, [&](int j) {
         PathCounters counters;
@@ -244,13 +243,8 @@ double run_pilot(const Scene& scene, const Camera& camera, int width, int height
                 // both techniques get the same numbers, which makes their comparison less noisy.
                 Rng rng = Rng::for_index(seed, Stream::Camera,
                                          ((uint64_t(y) * uint64_t(width) + uint64_t(x)) << 24) ^ uint64_t((1 << 23) + s));
-                Ray ray;
-                ray.o = camera.origin;
-                ray.d = camera_direction(camera, x + rng.next_float(), y + rng.next_float(), width, height);
-                const float cos_fwd = dot(ray.d, camera.forward);
-                ray.tmin = fwd_near / cos_fwd;
-                ray.tmax = fwd_far / cos_fwd;
-                const RGB l = trace_path(scene, ray, rng, ps, counters);
+                const float fx = x + rng.next_float(), fy = y + rng.next_float();
+                const RGB l = trace_path(scene, camera_ray(camera, fx, fy, width, height), rng, ps, counters);
                 const double v = is_finite(l) ? double(luminance(l)) : 0.0;
                 pp.sum += v;
                 pp.sum2 += v * v;
@@ -348,7 +342,6 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
     const int tile_count = tiles_x * tiles_y;
     std::atomic<uint64_t> rays{0}, nonfinite{0};
-    const float fwd_near = scene.camera.near_clip, fwd_far = scene.camera.far_clip;
 
     // The clock starts before the pilot: its time is part of the budget (equal-time comparisons).
     auto start = std::chrono::steady_clock::now();
@@ -382,13 +375,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
                         float w;
                         Vec2 off = filter.sample({rng.next_float(), rng.next_float()}, &w);
                         float fx = x + 0.5f + off.x, fy = y + 0.5f + off.y;
-                        Ray ray;
-                        ray.o = camera.origin;
-                        ray.d = camera_direction(camera, fx, fy, width, height);
-                        float cos_fwd = dot(ray.d, camera.forward);
-                        ray.tmin = fwd_near / cos_fwd;
-                        ray.tmax = fwd_far / cos_fwd;
-                        RGB l = trace_path(scene, ray, rng, ps, counters);
+                        RGB l = trace_path(scene, camera_ray(camera, fx, fy, width, height), rng, ps, counters);
                         if (!is_finite(l) || !std::isfinite(w)) {
                             ++bad;  // counted and reported; the sample still counts with zero radiance
                             l = RGB(0.0f);
