@@ -2,7 +2,7 @@
 // (libcommon/bsdf_fraction.h):
 //   - the two-level cdf search gives bit for bit the sample of the plain search, and the density derived
 //     from the cdf is bit for bit the stored pdf (so the guide may drop the pdf table);
-//   - the hash-grid lookup (with its tree fallback) finds a serving cache exactly when one exists, and
+//   - the hash-grid lookup (with its tree fallback) takes the nearest serving cache, guiding or not, and
 //     the one it returns serves (distance and normal), compared against brute force;
 //   - the BSDF fraction: a cache whose distribution is the cosine gains nothing and is not used, a
 //     peaked one gets a small alpha and a large predicted gain.
@@ -71,7 +71,7 @@ CacheAtlas plane_atlas(size_t n, uint64_t seed) {
         a.normal.push_back({0, 0, top ? -1.0f : 1.0f});
         a.radius.push_back(0.05f + 0.5f * rng.next_float() * rng.next_float());
         a.photon_count.push_back(10);
-        a.usable.push_back(c % 7 == 3 ? 0 : 1);  // some unusable: never returned
+        a.usable.push_back(c % 7 == 3 ? 0 : 1);  // some unusable: they claim vertices but never guide
     }
     std::vector<float> w(N, 1.0f);
     a.pdf.resize(n * N);
@@ -80,45 +80,52 @@ CacheAtlas plane_atlas(size_t n, uint64_t seed) {
     return a;
 }
 
-TEST(GuideLookup, FindsAServingCacheExactlyWhenOneExists) {
+TEST(GuideLookup, TakesTheNearestServingCacheAndGuidesOnlyWhereItGuides) {
     const CacheAtlas atlas = plane_atlas(3000, 7);
     const Guide guide(atlas, 0.25f);  // constant fraction: every usable cache guides
     Rng rng(11, 4);
     const float slack = 1.5f, normal_cos = 0.7071f;
-    int found = 0, none = 0;
+    auto serves = [&](size_t c, Vec3 p, Vec3 n) {
+        const float r = atlas.radius[c] * slack;
+        return length_sq(atlas.position[c] - p) <= r * r && dot(atlas.normal[c], n) >= normal_cos;
+    };
+    int found = 0, none = 0, unusable_nearest = 0;
     for (int q = 0; q < 20000; ++q) {
         // Points on and near either plane, and some between them; normals up, down or tilted.
         const float z = q % 3 == 0 ? 0.0f : q % 3 == 1 ? 1.0f : rng.next_float();
         const Vec3 p{rng.next_float() * 11 - 0.5f, rng.next_float() * 11 - 0.5f, z + 0.02f * (rng.next_float() - 0.5f)};
         const Vec3 n = normalize(Vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, q % 2 ? 1.0f : -1.0f));
-        bool exists = false;
-        for (size_t c = 0; c < atlas.size() && !exists; ++c) {
-            const float r = atlas.radius[c] * slack;
-            exists = atlas.usable[c] && length_sq(atlas.position[c] - p) <= r * r && dot(atlas.normal[c], n) >= normal_cos;
+        // Brute force: the nearest cache (usable or not) that serves p.
+        int nearest = -1;
+        float nearest_d2 = kInf;
+        bool usable_serves = false;
+        for (size_t c = 0; c < atlas.size(); ++c) {
+            if (!serves(c, p, n)) continue;
+            usable_serves |= atlas.usable[c] != 0;
+            const float d2 = length_sq(atlas.position[c] - p);
+            if (d2 < nearest_d2) nearest_d2 = d2, nearest = int(c);
         }
         const int c = guide.lookup(p, n);
-        ASSERT_EQ(c >= 0, exists) << "query " << q;
-        // The nearest of the serving caches whenever one lies within the lookup's reach.
-        if (c >= 0)
-            for (size_t o = 0; o < atlas.size(); ++o) {
-                const float r = atlas.radius[o] * slack, d2 = length_sq(atlas.position[o] - p);
-                if (atlas.usable[o] && d2 <= r * r && dot(atlas.normal[o], n) >= normal_cos &&
-                    d2 <= sqr(guide.lookup_reach()))
-                    ASSERT_LE(length_sq(atlas.position[size_t(c)] - p), d2) << "query " << q << " cache " << o;
-            }
+        if (nearest >= 0 && nearest_d2 <= sqr(guide.lookup_reach())) {
+            // Within reach the nearest serving cache decides: it guides, or the vertex is unguided.
+            ASSERT_EQ(c, atlas.usable[size_t(nearest)] ? nearest : -1) << "query " << q;
+            unusable_nearest += !atlas.usable[size_t(nearest)];
+        }
+        if (!usable_serves) {
+            ASSERT_EQ(c, -1) << "query " << q;
+        }
         if (c < 0) {
             ++none;
             continue;
         }
         ++found;
-        const float r = atlas.radius[size_t(c)] * slack;
         EXPECT_TRUE(atlas.usable[size_t(c)]);
-        EXPECT_LE(length_sq(atlas.position[size_t(c)] - p), r * r);
-        EXPECT_GE(dot(atlas.normal[size_t(c)], n), normal_cos);
+        EXPECT_TRUE(serves(size_t(c), p, n));
     }
-    // Both outcomes occur, so neither branch went untested.
+    // Every outcome occurs, so no branch went untested.
     EXPECT_GT(found, 1000);
     EXPECT_GT(none, 1000);
+    EXPECT_GT(unusable_nearest, 100);
     EXPECT_EQ(guide.lookup(Vec3(1e30f, 0, 0), Vec3(0, 0, 1)), -1);
     EXPECT_EQ(guide.lookup(Vec3(std::nanf(""), 0, 0), Vec3(0, 0, 1)), -1);
 }

@@ -67,7 +67,7 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
     stride_ = (cdf_offset_ + N + 15) / 16 * 16;
     per_sr_ = float(N) * kInv4Pi;
     table_ = allocate_table(std::max<size_t>(1, n * stride_));
-    std::vector<uint32_t> guiding;
+    std::vector<uint32_t> guiding, claimants;
     summary_.caches = n;
     double sum_alpha = 0;
     // At least 0.2: the map is an estimate from a few hundred photons gathered over a disc, so BSDF
@@ -79,6 +79,11 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
         const float* cdf = atlas_.cdf_row(c);
         std::copy(cdf, cdf + N, block + cdf_offset_);
         for (int j = 0; j < R; ++j) block[j] = cdf[size_t(j) * size_t(R) + size_t(R - 1)];
+        // Every cache that gathered photons claims the vertices near it, guiding or not: where the
+        // nearest cache is not worth guiding with, the light there is what it measured, and a farther
+        // cache's map (from another place) is no better a guess. It also keeps the lookup short where
+        // caches do not guide (no search for a distant one).
+        if (atlas_.radius[c] > 0) claimants.push_back(uint32_t(c));
         if (!atlas_.usable[c]) continue;
         ++summary_.usable;
         float alpha = o.bsdf_fraction;
@@ -96,14 +101,13 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
     atlas_.cdf = {};
     summary_.guiding = guiding.size();
     summary_.mean_alpha = guiding.empty() ? 1.0 : sum_alpha / double(guiding.size());
-    build_grid(guiding);
+    if (!guiding.empty()) build_grid(claimants);
 }
 
-void Guide::build_grid(const std::vector<uint32_t>& guiding) {
-    if (guiding.empty()) return;
+void Guide::build_grid(const std::vector<uint32_t>& claimants) {
     positions_.clear();
-    for (uint32_t c : guiding) positions_.push_back(atlas_.position[c]);
-    guiding_ids_ = guiding;
+    for (uint32_t c : claimants) positions_.push_back(atlas_.position[c]);
+    claimant_ids_ = claimants;
     tree_ = std::make_unique<PointTree>(positions_);
     // Caches overlap heavily (serving radii are many spacings wide), so cells are sized by the spacing:
     // twice the median distance between neighbouring caches (over a sample), a handful of caches each.
@@ -126,7 +130,7 @@ void Guide::build_grid(const std::vector<uint32_t>& guiding) {
     const float reach = 0.5f * cell;
     reach_ = reach;
     max_serve2_ = 0;
-    for (uint32_t c : guiding) max_serve2_ = std::max(max_serve2_, sqr(atlas_.radius[c] * kLookupSlack));
+    for (uint32_t c : claimants) max_serve2_ = std::max(max_serve2_, sqr(atlas_.radius[c] * kLookupSlack));
     max_serve2_ = std::nextafter(max_serve2_, kInf);  // the tree's bound is exclusive
     grid_origin_ = Vec3(kInf);
     for (Vec3 p : positions_) grid_origin_ = vmin(grid_origin_, p - Vec3(reach));
@@ -154,7 +158,7 @@ void Guide::build_grid(const std::vector<uint32_t>& guiding) {
         s.key = key;
         s.begin = uint32_t(entries_.size());
         for (; i < listed.size() && listed[i].first == key; ++i) {
-            const uint32_t c = guiding[listed[i].second];
+            const uint32_t c = claimants[listed[i].second];
             const float r = atlas_.radius[c] * kLookupSlack;
             entries_.push_back({atlas_.position[c], r * r, atlas_.normal[c], c});
         }
@@ -179,6 +183,7 @@ int Guide::lookup(Vec3 p, Vec3 n_side) const {
     float d2 = kInf;
     int c = lookup_grid(p, n_side, &d2);
     if (c < 0) c = lookup_tree(p, n_side);
+    if (c >= 0 && !(alpha_[size_t(c)] < 1)) return -1;  // claimed by a cache that does not guide
     if (c >= 0) {
         // Sampling reads the row ends first, then one row of the cdf: start loading the former now,
         // while the vertex's shadow ray is traced.
@@ -219,24 +224,17 @@ bool Guide::serves(uint32_t c, Vec3 n_side, float d2) const {
 }
 
 int Guide::lookup_tree(Vec3 p, Vec3 n_side) const {
-    // The nearest few first (sorted: the first that serves is the nearest serving cache) ...
+    // The nearest few caches (sorted: the first that serves is the nearest serving one among them).
+    // A vertex that none of them serves is left unguided rather than searched for a distant cache
+    // with a wide disc: such vertices lie away from every cache (surfaces the camera does not see),
+    // where a search of all caches within the widest serving distance would cost hundreds of
+    // candidates for a map measured elsewhere.
     uint32_t idx[kLookupCandidates];
     float d2[kLookupCandidates];
     const uint32_t n = tree_->nearest(p, kLookupCandidates, max_serve2_, idx, d2);
     for (uint32_t i = 0; i < n; ++i)
-        if (serves(guiding_ids_[idx[i]], n_side, d2[i])) return int(guiding_ids_[idx[i]]);
-    if (n < kLookupCandidates) return -1;  // no other cache is within the largest serving distance
-    // ... then all caches within the largest serving distance (rare: creases, thin walls).
-    thread_local std::vector<std::pair<uint32_t, float>> found;
-    tree_->within(p, max_serve2_, found);
-    int best = -1;
-    float best_d2 = kInf;
-    for (const auto& [i, dist2] : found)
-        if (dist2 < best_d2 && serves(guiding_ids_[i], n_side, dist2)) {
-            best_d2 = dist2;
-            best = int(guiding_ids_[i]);
-        }
-    return best;
+        if (serves(claimant_ids_[idx[i]], n_side, d2[i])) return int(claimant_ids_[idx[i]]);
+    return -1;
 }
 
 Vec3 Guide::sample(int c, Vec2 u, float* pdf) const {

@@ -51,10 +51,12 @@ public:
     // Constant BSDF fraction alpha in [0, 1) for every usable cache (no per-cache choice).
     Guide(CacheAtlas atlas, float bsdf_fraction) : Guide(std::move(atlas), GuideOptions{bsdf_fraction, 1.0f}) {}
 
-    // The cache serving a vertex at p whose surface side (the side the path arrives from) has normal
-    // n_side, or -1 when none serves: a guiding cache within a distance of its own gather radius (times
-    // a slack) whose normal is within 45 degrees of n_side -- the nearest such cache whenever one lies
-    // within lookup_reach() of p, else the nearest listed in p's grid cell or found by the tree.
+    // The guiding cache for a vertex at p whose surface side (the side the path arrives from) has
+    // normal n_side, or -1 for an unguided vertex. A cache serves p when p is within its gather radius
+    // (times a slack) and its normal within 45 degrees of n_side. The vertex takes the nearest serving
+    // cache whenever one lies within lookup_reach() of p, else the nearest serving one listed in p's
+    // grid cell, else the nearest serving one of the 8 caches nearest p -- guiding or not: -1 when that
+    // cache does not guide (too few photons, or a predicted gain below min_gain) or none is found.
     // Starts loading the cache's sampling table into the CPU cache.
     int lookup(Vec3 p, Vec3 n_side) const;
 
@@ -89,9 +91,9 @@ public:
     bool empty() const { return summary_.guiding == 0; }
 
 private:
-    // A hash grid over the guiding caches: each cell lists, contiguous in memory with what the test
+    // A hash grid over the caches that claim vertices (all with a gather disc): each cell lists, contiguous in memory with what the test
     // needs, the caches within half a cell of it, so most lookups cost one hash probe and a short scan.
-    // Vertices whose cell has no serving cache fall back to a k-d tree.
+    // Vertices whose cell lists no serving cache fall back to the k-d tree's nearest few.
     struct GridEntry {
         Vec3 position;
         float radius2;   // squared distance the cache may serve
@@ -102,16 +104,16 @@ private:
         uint64_t key = ~0ull;  // ~0 = empty
         uint32_t begin = 0, end = 0;  // entries_ range of the cell
     };
-    void build_grid(const std::vector<uint32_t>& guiding);
+    void build_grid(const std::vector<uint32_t>& claimants);
     // The nearest serving cache listed in p's cell (*best_d2: its squared distance, kInf if none).
     int lookup_grid(Vec3 p, Vec3 n_side, float* best_d2) const;
-    // The nearest serving cache, from the k-d tree.
+    // The nearest serving cache among the few nearest p, from the k-d tree.
     int lookup_tree(Vec3 p, Vec3 n_side) const;
     bool serves(uint32_t cache, Vec3 n_side, float d2) const;
     float reach_ = 0;       // a cell lists every cache within this distance of it
-    float max_serve2_ = 0;  // largest squared serving distance of any guiding cache
-    std::vector<Vec3> positions_;       // of the guiding caches (the tree's points)
-    std::vector<uint32_t> guiding_ids_; // their atlas indices
+    float max_serve2_ = 0;  // largest squared serving distance of any cache
+    std::vector<Vec3> positions_;        // of the caches that claim vertices (the tree's points)
+    std::vector<uint32_t> claimant_ids_; // their atlas indices
     std::unique_ptr<PointTree> tree_;
     uint64_t cell_key(int64_t x, int64_t y, int64_t z) const;
     float inv_cell_ = 0;
