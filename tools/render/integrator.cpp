@@ -274,14 +274,18 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
         tg += run_pilot(scene, camera, width, height, kStride, spp, spp + kPass, seed, guided, g);
         spp += kPass;
     }
-    // Relative noise of each against the same per-pixel value (the mean of both estimates), so that
-    // the two are judged on the same scale: what relMSE against a reference would weigh.
+    // Relative noise of each against the same per-pixel value, so that the two are judged on the same
+    // scale, what relMSE against a reference weighs: the smaller of the two estimates of the pixel.
+    // The pixel's mean over both would not do: one rare bright sample (a caustic path found by BSDF
+    // sampling) raises it with the variance, so that variance / mean^2 stays near the sample count
+    // however heavy the tail, and the pilot would judge unguided sampling far less noisy than it is
+    // exactly where guiding helps. The other technique's estimate is free of that sample.
     double ru = 0, rg = 0;
     for (size_t i = 0; i < u.size(); ++i) {
         const double mu = u[i].sum / spp, mg = g[i].sum / spp;
         const double vu = std::max(0.0, (u[i].sum2 - u[i].sum * mu) / (spp - 1));
         const double vg = std::max(0.0, (g[i].sum2 - g[i].sum * mg) / (spp - 1));
-        const double m = 0.5 * (mu + mg);
+        const double m = std::min(mu, mg);
         ru += vu / (m * m + 0.01);
         rg += vg / (m * m + 0.01);
     }

@@ -27,9 +27,10 @@ struct RenderOptions {
     std::string command_line;     // recorded in the output's metadata
     const Guide* guide = nullptr; // cache atlas to guide with (null = unguided)
     GuideMode mode = GuideMode::NeeBsdfCache;  // how techniques combine when guided
-    // Guide the first this many non-specular vertices of a path; 0 = all. Measured on the egg and the
-    // glass spheres (docs/benchmarks): two keep nearly all of the variance reduction at less cost.
-    int guide_vertices = 2;
+    // Guide the first this many non-specular vertices of a path; 0 = all. Measured at equal time on all
+    // six seed scenes (docs/BENCHMARKS.md): one is as good as two or better everywhere -- the first
+    // vertex carries most of the variance guiding removes, and each guided vertex costs a lookup.
+    int guide_vertices = 1;
     // With a guide: measure unguided and guided sampling in a short pilot first and guide only if the
     // pilot predicts a win at equal time (decide_guiding); the pilot's time counts in the budget.
     bool auto_guide = false;

@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
                    "Probability of BSDF sampling where a cache guides: auto (default: chosen per cache from its "
                    "distribution; caches predicted to gain less than --min-gain are not used) or a constant in [0, 1)");
     app.add_option("--guide-vertices", opt.guide_vertices,
-                   "Guide only the first N non-specular vertices of each path (0 = all; default 2)");
+                   "Guide only the first N non-specular vertices of each path (0 = all; default 1)");
     app.add_option("--min-gain", guide_options.min_gain,
                    "With --bsdf-fraction auto: least predicted variance reduction for a cache to be used (>= 1)");
     app.add_option("--snapshot", opt.snapshot_interval,
