@@ -74,6 +74,15 @@ float bsdf_pdf(const Bsdf& b, Vec3 wi, Vec3 wo);
 // Returns false when no direction could be produced (then *s is unspecified).
 bool bsdf_sample(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s,
                  TransportMode mode = TransportMode::Radiance);
+// Path guiding replaces only some of a BSDF's sampling: the diffuse (cosine) lobe of a layered BSDF
+// (plastic, rough plastic, Ward with a diffuse part), whose glossy or mirror coat stays with the BSDF
+// because a cache map cannot resolve it, or the whole BSDF where it is one lobe (diffuse, rough
+// diffuse, rough conductor, Ward without a diffuse part). Contract with bsdf_sample: for
+// uc >= 1 - bsdf_guidable_share(b, wi) it samples the replaceable lobes, below it the others.
+// Probability with which bsdf_sample uses the replaceable lobes at wi (0 for Dirac-only BSDFs).
+float bsdf_guidable_share(const Bsdf& b, Vec3 wi);
+// The replaceable lobes' part of bsdf_pdf(b, wi, wo): their share times their density per steradian.
+float bsdf_guidable_pdf(const Bsdf& b, Vec3 wi, Vec3 wo);
 // True if the BSDF has only Dirac lobes (dielectric, conductor): NEE and guiding are pointless there.
 bool bsdf_is_delta(const Bsdf& b);
 // True if some lobe is smooth enough that MIS/NEE at this vertex makes sense (has a non-delta part).

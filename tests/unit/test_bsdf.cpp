@@ -192,6 +192,51 @@ TEST(BsdfSample, WeightIsEvalOverPdfAndPdfMatches) {
     }
 }
 
+// The lobes a guide may replace (bsdf_guidable_share/pdf): q is the part of bsdf_pdf that those lobes
+// contribute (0 <= q <= p_bsdf, q = p_bsdf for one-lobe models), and bsdf_sample takes them exactly for
+// uc >= 1 - g: there a layered model samples its cosine lobe (the same direction as a diffuse BSDF for
+// the same u), below it its coat (a different direction).
+TEST(BsdfGuidable, ShareAndDensityMatchTheLobeChoiceOfSample) {
+    const Bsdf lambert = diffuse(RGB(0.5f));
+    Rng rng(5, 1);
+    for (const Case& c : nondelta_cases()) {
+        SCOPED_TRACE(c.name);
+        const bool layered = c.b.type == BsdfType::Plastic || c.b.type == BsdfType::RoughPlastic ||
+                             (c.b.type == BsdfType::Ward && !is_black(c.b.diffuse));
+        for (Vec3 wi : incident_dirs()) {
+            const float g = bsdf_guidable_share(c.b, wi);
+            ASSERT_GT(g, 0.0f);
+            ASSERT_LE(g, 1.0f);
+            if (!layered) {
+                EXPECT_EQ(g, 1.0f);
+            }
+            for (int i = 0; i < 64; ++i) {
+                const Vec2 u{rng.next_float(), rng.next_float()};
+                const Vec3 wo = dir(89.0f * rng.next_float(), 360.0f * rng.next_float());
+                const float q = bsdf_guidable_pdf(c.b, wi, wo), p = bsdf_pdf(c.b, wi, wo);
+                EXPECT_GE(q, 0.0f);
+                EXPECT_LE(q, p * (1 + 1e-5f) + 1e-7f);
+                if (!layered) {
+                    EXPECT_EQ(q, p);
+                }
+                if (!layered || g >= 1) continue;
+                BsdfSample lobe, coat, cosine;
+                ASSERT_TRUE(bsdf_sample(lambert, wi, u, 0.5f, &cosine));
+                const float uc_lobe = (1 - g) + g * rng.next_float(), uc_coat = (1 - g) * rng.next_float();
+                ASSERT_TRUE(bsdf_sample(c.b, wi, u, std::min(uc_lobe, 0x1.fffffep-1f), &lobe));
+                EXPECT_EQ(lobe.wo.x, cosine.wo.x);
+                EXPECT_EQ(lobe.wo.z, cosine.wo.z);
+                if (bsdf_sample(c.b, wi, u, uc_coat, &coat)) {
+                    EXPECT_NE(coat.wo.z, cosine.wo.z);
+                }
+            }
+        }
+    }
+    // Dirac-only models have nothing to replace.
+    EXPECT_EQ(bsdf_guidable_share(dielectric(1.5f), dir(30, 0)), 0.0f);
+    EXPECT_EQ(bsdf_guidable_share(conductor(kGoldEta, kGoldK), dir(30, 0)), 0.0f);
+}
+
 TEST(BsdfSample, PdfAndEvalFiniteAndNonNegativeEverywhere) {
     for (const Case& c : nondelta_cases()) {
         SCOPED_TRACE(c.name);

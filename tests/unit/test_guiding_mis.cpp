@@ -1,7 +1,10 @@
 // MIS weights of the guided path tracer sum to one (DESIGN.md 4.3). At a non-specular vertex with
 // cache c and BSDF share alpha, a path that ends on an emitter can be made by two techniques:
 //   NEE:           weight p_light^2 / (p_light^2 + p_mix^2)
-//   continuation:  weight p_mix^2   / (p_mix^2 + p_light^2),  p_mix = alpha p_bsdf + (1 - alpha) p_cache,
+//   continuation:  weight p_mix^2   / (p_mix^2 + p_light^2),
+//   p_mix = p_bsdf + (1 - alpha)(g p_cache - q)   (g = bsdf_guidable_share, q = bsdf_guidable_pdf:
+//   the cache replaces only the diffuse lobe of a layered BSDF; for one-lobe BSDFs g = 1, q = p_bsdf and
+//   p_mix = alpha p_bsdf + (1 - alpha) p_cache),
 // with alpha = 1 unguided (nee+bsdf, or no cache serves), alpha = 0 in nee+cache, the Guide's share in
 // the mixture modes; bsdf+cache has no NEE and gives the continuation weight 1.
 //
@@ -12,12 +15,13 @@
 //   - for a direction made by NEE: the NEE weight uses the density sample_light reported, the
 //     continuation weight the density light_pdf gives when the ray actually hits the light;
 //   - for a direction made by the continuation: its weight uses the density reported while sampling
-//     (alpha bs.pdf + (1 - alpha) guide.pdf, or alpha bsdf_pdf + (1 - alpha) p_cache as sampled), the NEE
+//     (from bs.pdf and guide.pdf, or from bsdf_pdf and the p_cache sampled), the NEE
 //     weight the densities evaluated afresh (bsdf_pdf, Guide::pdf) for the direction.
 // So each sum is one exactly when each technique's reported density equals the density the other side
 // evaluates for the same direction: same frame, same cache, same selection probabilities.
-// Vertices: random points on the surfaces of the caustic box and of the three-rooms scene (mesh, sphere
-// and point lights), found by tracing towards photon positions, with random incident directions.
+// Vertices: random points on the surfaces of the caustic box, of the three-rooms scene (mesh, sphere
+// and point lights) and of the layered tiles box (plastic, rough plastic, Ward), found by tracing
+// towards photon positions, with random incident directions.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -90,6 +94,7 @@ bool hits_emitter(const Scene& scene, const Vertex& v, Vec3 d, SurfaceHit* lh) {
 }
 
 struct Tally {
+    long long layered_vertices = 0;  // guided vertices on a BSDF whose coat the cache leaves alone
     long long nee_paths = 0, hit_paths = 0, bad = 0;
     double worst = 0;
     void check(double sum, const char* what, GuideMode m) {
@@ -129,15 +134,20 @@ void check_scene(const GuidedScene& s, int vertices, int samples_per_vertex, Tal
         const Vec3 n_side = dot(v.hit.ng, v.wi_world) >= 0 ? v.hit.ng : -v.hit.ng;
         const int lookup = guide.lookup(v.hit.p, n_side);
         guided_vertices += lookup >= 0;
+        tally->layered_vertices += lookup >= 0 && bsdf_guidable_share(bsdf, v.wi) < 1;
 
         for (GuideMode mode : kModes) {
             const bool use_nee = mode != GuideMode::BsdfCache;
             const int cache = mode == GuideMode::NeeBsdf ? -1 : lookup;
             const float alpha = cache < 0 ? 1.0f : mode == GuideMode::NeeCache ? 0.0f : guide.bsdf_fraction(cache);
+            const float g = cache < 0 ? 0.0f : bsdf_guidable_share(bsdf, v.wi), keep = 1 - g;
+            auto mix = [&](Vec3 d, float pb, float pc) {
+                return std::max(0.0f, pb + (1 - alpha) * (g * pc - bsdf_guidable_pdf(bsdf, v.wi, v.hit.frame.to_local(d))));
+            };
             // The density with which the continuation produces direction d, evaluated afresh.
             auto p_mix_eval = [&](Vec3 d) {
                 const float pb = bsdf_pdf(bsdf, v.wi, v.hit.frame.to_local(d));
-                return cache < 0 ? pb : alpha * pb + (1 - alpha) * guide.pdf(cache, d);
+                return cache < 0 ? pb : mix(d, pb, guide.pdf(cache, d));
             };
             for (int si = 0; si < samples_per_vertex; ++si) {
                 // Technique 1: NEE.
@@ -164,15 +174,16 @@ void check_scene(const GuidedScene& s, int vertices, int samples_per_vertex, Tal
                 const Vec2 u{rng.next_float(), rng.next_float()};
                 Vec3 d;
                 float p_sampled = 0;
-                if (cache < 0 || uc < alpha) {
+                if (cache < 0 || uc < 1 - (1 - alpha) * g) {
+                    const float uc_bsdf = cache < 0 || uc < keep ? uc : std::min(keep + (uc - keep) / alpha, 0x1.fffffep-1f);
                     BsdfSample bs;
-                    if (!bsdf_sample(bsdf, v.wi, u, cache < 0 ? uc : uc / alpha, &bs) || bs.delta) continue;
+                    if (!bsdf_sample(bsdf, v.wi, u, uc_bsdf, &bs) || bs.delta) continue;
                     d = v.hit.frame.to_world(bs.wo);
-                    p_sampled = cache < 0 ? bs.pdf : alpha * bs.pdf + (1 - alpha) * guide.pdf(cache, d);
+                    p_sampled = cache < 0 ? bs.pdf : mix(d, bs.pdf, guide.pdf(cache, d));
                 } else {
                     float p_cache = 0;
                     d = guide.sample(cache, u, &p_cache);
-                    p_sampled = alpha * bsdf_pdf(bsdf, v.wi, v.hit.frame.to_local(d)) + (1 - alpha) * p_cache;
+                    p_sampled = mix(d, bsdf_pdf(bsdf, v.wi, v.hit.frame.to_local(d)), p_cache);
                 }
                 SurfaceHit lh;
                 if (!(p_sampled > 0) || !hits_emitter(scene, v, d, &lh)) continue;
@@ -206,6 +217,16 @@ TEST(GuidingMis, WeightsSumToOneWithSphereAndPointLights) {
     GuidedScene s = make_setup("guiding/three_rooms.xml");
     Tally t;
     check_scene(s, 3000, 40, &t);
+    EXPECT_GT(t.nee_paths, 40000);
+    EXPECT_GT(t.hit_paths, 3000);
+    EXPECT_LE(t.bad, (t.nee_paths + t.hit_paths) / 10000) << "worst |sum - 1| = " << t.worst;
+}
+
+TEST(GuidingMis, WeightsSumToOneOnLayeredBsdfs) {
+    GuidedScene s = make_setup("guiding/layered_tiles_box.xml");
+    Tally t;
+    check_scene(s, 3000, 40, &t);
+    EXPECT_GT(t.layered_vertices, 150) << "too few guided vertices on the plastic, rough plastic and Ward tiles";
     EXPECT_GT(t.nee_paths, 40000);
     EXPECT_GT(t.hit_paths, 3000);
     EXPECT_LE(t.bad, (t.nee_paths + t.hit_paths) / 10000) << "worst |sum - 1| = " << t.worst;

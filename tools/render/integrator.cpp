@@ -90,30 +90,33 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // "outside" (sees none of it) would otherwise be decided by rounding.
         const Vec3 ref = offset_ray_origin(hit.p, hit.ng, wi_world, hit.magnitude);
 
-        // The cache serving this vertex, and the probability alpha of BSDF sampling in the one-sample
-        // mixture p_mix = alpha p_bsdf + (1 - alpha) p_cache (DESIGN 4.3). alpha = 1: unguided.
+        // The cache serving this vertex, and the one-sample mixture of BSDF and cache sampling (DESIGN
+        // 4.3). The cache replaces only the lobes bsdf_guidable_share/pdf name (a layered BSDF keeps its
+        // coat: a map cannot resolve a glossy highlight): of those, the share alpha stays with the BSDF.
+        //   p_mix = p_bsdf + (1 - alpha) (g p_cache - q),  g = guidable share, q = those lobes' density,
+        // i.e. the coat as the BSDF samples it, plus g (alpha p_lobes + (1 - alpha) p_cache).
         int cache = -1;
-        float alpha = 1.0f;
+        float alpha = 1.0f, g = 0.0f;
         if (guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf)) {
             ++guided_vertices;
             Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
             cache = guide->lookup(hit.p, n_side);
-            // nee+cache continues from the cache alone, except where the BSDF has a Dirac lobe beside
-            // its smooth part (smooth plastic): only BSDF sampling can produce that lobe, so it keeps
-            // its share there, or the estimator would miss the mirror reflection (DESIGN 4.4).
-            if (cache >= 0)
-                alpha = (ps.mode == GuideMode::NeeCache && bsdf.type != BsdfType::Plastic) ? 0.0f
-                                                                                          : guide->bsdf_fraction(cache);
+            if (cache >= 0) {
+                alpha = ps.mode == GuideMode::NeeCache ? 0.0f : guide->bsdf_fraction(cache);
+                g = bsdf_guidable_share(bsdf, wi);
+            }
         }
-        auto mix_pdf = [&](Vec3 wo_world, float p_bsdf) {
-            return cache < 0 ? p_bsdf : alpha * p_bsdf + (1 - alpha) * guide->pdf(cache, wo_world);
+        const float k_cache = (1 - alpha) * g;  // probability of the cache technique (0 unguided)
+        auto mix_from = [&](Vec3 wo, float p_bsdf, float p_cache) {
+            return std::max(0.0f, p_bsdf + (1 - alpha) * (g * p_cache - bsdf_guidable_pdf(bsdf, wi, wo)));
         };
 
         // The continuation's random numbers are drawn first, so that where the cache technique will be
         // chosen its cdf row can start loading now and arrive while the shadow ray is traced.
         const float uc = rng.next_float();
         const Vec2 u{rng.next_float(), rng.next_float()};
-        if (cache >= 0 && uc >= alpha) guide->prefetch_sample(cache, u);
+        const bool use_cache = cache >= 0 && uc >= 1 - k_cache;
+        if (use_cache) guide->prefetch_sample(cache, u);
 
         // Next-event estimation (only where the BSDF has a non-delta part), MIS-weighted against the
         // continuation's full mixture density.
@@ -146,8 +149,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                             float w = 1.0f;
                             if (!ls.delta) {
                                 const float p_bsdf = bsdf_pdf(bsdf, wi, wo);
-                                const float p_mix = cache < 0 ? p_bsdf
-                                                              : alpha * p_bsdf + (1 - alpha) * guide->texel_pdf(cache, nee_texel);
+                                const float p_mix = cache < 0 ? p_bsdf : mix_from(wo, p_bsdf, guide->texel_pdf(cache, nee_texel));
                                 w = power_heuristic(ls.pdf, p_mix);
                             }
                             L += beta * f * ls.radiance * (w / ls.pdf);
@@ -168,40 +170,40 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             eta_scale *= bs.eta * bs.eta;
             prev_pdf = bs.pdf;
             prev_delta = bs.delta;
-        } else {
-            Vec3 wo;
-            if (uc < alpha) {
-                // BSDF technique; uc is rescaled to stay uniform for the BSDF's own lobe choice.
-                BsdfSample bs;
-                if (!bsdf_sample(bsdf, wi, u, uc / alpha, &bs)) break;
-                wo = bs.wo;
-                wo_world = hit.frame.to_world(wo);
-                if (!consistent_side(wo_world, hit.ng, wo.z)) break;
-                eta_scale *= bs.eta * bs.eta;
-                if (bs.delta) {
-                    // A Dirac lobe can only come from the BSDF technique: no MIS, divide by its choice.
-                    beta *= bs.weight / alpha;
-                    prev_pdf = bs.pdf;
-                    prev_delta = true;
-                } else {
-                    float p = mix_pdf(wo_world, bs.pdf);
-                    if (!(p > 0)) break;
-                    beta *= bsdf_eval(bsdf, wi, wo) / p;
-                    prev_pdf = p;
-                    prev_delta = false;
-                }
+        } else if (!use_cache) {
+            // BSDF technique. uc is remapped to stay uniform for the BSDF's own lobe choice: below 1 - g
+            // (the coat) as it is, the rest of [1 - g, 1 - k_cache) stretched onto [1 - g, 1).
+            const float keep = 1 - g;
+            const float uc_bsdf = uc < keep ? uc : std::min(keep + (uc - keep) / alpha, 0x1.fffffep-1f);
+            BsdfSample bs;
+            if (!bsdf_sample(bsdf, wi, u, uc_bsdf, &bs)) break;
+            const Vec3 wo = bs.wo;
+            wo_world = hit.frame.to_world(wo);
+            if (!consistent_side(wo_world, hit.ng, wo.z)) break;
+            eta_scale *= bs.eta * bs.eta;
+            if (bs.delta) {
+                // A Dirac coat comes only from the BSDF technique, with the BSDF's own probability.
+                beta *= bs.weight;
+                prev_pdf = bs.pdf;
+                prev_delta = true;
             } else {
-                float p_cache;
-                wo_world = guide->sample(cache, u, &p_cache);
-                wo = hit.frame.to_local(wo_world);
-                if (!(p_cache > 0) || !consistent_side(wo_world, hit.ng, wo.z)) break;
-                float p = alpha * bsdf_pdf(bsdf, wi, wo) + (1 - alpha) * p_cache;
-                RGB f = bsdf_eval(bsdf, wi, wo);
-                if (is_black(f)) break;
-                beta *= f / p;
+                const float p = mix_from(wo, bs.pdf, guide->pdf(cache, wo_world));
+                if (!(p > 0)) break;
+                beta *= bsdf_eval(bsdf, wi, wo) / p;
                 prev_pdf = p;
                 prev_delta = false;
             }
+        } else {
+            float p_cache;
+            wo_world = guide->sample(cache, u, &p_cache);
+            const Vec3 wo = hit.frame.to_local(wo_world);
+            if (!(p_cache > 0) || !consistent_side(wo_world, hit.ng, wo.z)) break;
+            const float p = mix_from(wo, bsdf_pdf(bsdf, wi, wo), p_cache);
+            RGB f = bsdf_eval(bsdf, wi, wo);
+            if (is_black(f) || !(p > 0)) break;
+            beta *= f / p;
+            prev_pdf = p;
+            prev_delta = false;
         }
         if (is_black(beta)) break;
         prev_p = ref;
