@@ -4,6 +4,7 @@
 #   make -f pipelines/bench.mk quick        # half resolution, budgets 6/12/24 s, 3 modes (~15 min + references)
 #   make -f pipelines/bench.mk full         # full resolution, budgets 15..120 s, all modes (hours)
 #   make -f pipelines/bench.mk references TIER=quick   # only the references
+#   make -f pipelines/bench.mk params PARAM_SCENE=cbox_kugeln   # parameter studies on one scene (~10 min)
 #
 # References are unguided long renders (the path tracer alone, independent of the guiding code), kept
 # outside git in $(REF_DIR) with a manifest (scene, fingerprint, resolution, spp, seconds, command); make
@@ -43,12 +44,22 @@ path_of = $(SEEDS)/$(word 2,$(subst :, ,$(1)))
 REFS := $(foreach s,$(SCENES_ALL),$(REF_DIR)/$(call name_of,$(s))-s$(SCALE)-$(REF_SPP)spp.exr)
 RESULTS := $(foreach s,$(SCENES_ALL),$(RUNS)/$(call name_of,$(s))/results.json)
 
-.PHONY: quick full references runs report FORCE
+# Parameter studies (the thesis's: photon paths, cache count, photons per cache, map resolution, filter),
+# one guided.mk setting at a time, at the quick tier's scale and largest budget.
+PARAM_SCENE ?= cbox_kugeln
+PARAM_BUDGET ?= 24
+PARAM_STUDY ?= PATHS=62500,125000,250000,500000;COUNT=1000,4000,16000;K=250,500,1000,2000;RES=8,16,32;SIGMA=0,0.75,1.5
+
+.PHONY: quick full references runs report params FORCE
 quick:
 	@$(MAKE) -f pipelines/bench.mk TIER=quick report
 full:
 	@$(MAKE) -f pipelines/bench.mk TIER=full report
 references: $(REFS)
+params: $(REF_DIR)/$(PARAM_SCENE)-s$(SCALE)-$(REF_SPP)spp.exr
+	IRIS_BIN=$(BIN) python3 scripts/bench.py params --scene $(call path_of,$(filter $(PARAM_SCENE):%,$(SCENES_ALL))) \
+	  --name $(PARAM_SCENE) --scale $(SCALE) --budget $(PARAM_BUDGET) --reference $< --study '$(PARAM_STUDY)' \
+	  --out out/bench/params/$(PARAM_SCENE) -o docs/benchmarks/params-$(PARAM_SCENE).md
 runs: $(RESULTS)
 
 report: $(RESULTS)

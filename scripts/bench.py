@@ -5,8 +5,10 @@ Subcommands (each writes files; bench.mk decides what is stale):
   reference  an unguided long render of a scene (independent of the guiding code) with a manifest
   runs       for one scene: the guided pipeline's preprocessing once, then every mode at a ladder of
              total time budgets (preprocessing counted inside a guided budget), each compared against
-             the reference; one line per render in results.tsv
+             the reference; all figures in results.json
   report     tables, log-log plots (SVG) and image crops for every scene of a tier
+  params     the parameter studies on one scene: one pipeline setting varied at a time, fixed guiding
+             against nee+bsdf at one total budget; a markdown table per setting
 
 Only the Python standard library is used. Times are wall seconds on this machine, measured around each
 tool's whole command (scene loading and atlas loading included), so that modes are compared at equal
@@ -109,6 +111,35 @@ def cmd_reference(a):
     print("reference %s: %s spp, %.0f s" % (a.output, meta.get("iris:spp"), seconds))
 
 
+def preprocess(scene, out, pipeline_vars):
+    """Runs the pipeline's preprocessing from scratch into OUT (so that its times are this run's);
+    returns (total seconds, seconds per stage) as the stages measured themselves."""
+    for stage in ("photons", "caches", "atlas"):
+        for ext in (".h5", ".seconds", ".params"):
+            p = os.path.join(out, stage + ext)
+            if os.path.exists(p):
+                os.remove(p)
+    run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + scene, "OUT=" + out, "BIN=" + BIN, "atlas"]
+        + list(pipeline_vars))
+    parts = {}
+    for stage in ("photons", "caches", "atlas"):
+        with open(os.path.join(out, stage + ".seconds")) as f:
+            parts[stage] = float(f.read())
+    return sum(parts.values()), parts
+
+
+def render_and_compare(scene, out, res, seconds, reference, extra):
+    """One timed render (--time SECONDS, seed 7) compared with the reference: a dict of its figures."""
+    cmd = [BIN + "/render", scene, "-o", out, "--resolution", res, "--time", "%.3f" % seconds, "--seed", "7", "-q"]
+    wall, _, _ = run(cmd + list(extra))
+    meta = metadata(out)
+    c = compare(out, reference)
+    return dict(render_wall=wall, spp=int(meta["iris:spp"]), sampling_seconds=float(meta["iris:seconds"]),
+                relmse=c["relmse"], relmse_trimmed=c["relmse_trimmed"], mape=c["mape"],
+                nonfinite=int(meta.get("iris:nonfinite_samples", "0")), decision=meta.get("iris:auto_guide", ""),
+                image=out)
+
+
 def cmd_runs(a):
     w, h = scaled_resolution(a.scene, a.scale)
     res = "%dx%d" % (w, h)
@@ -118,22 +149,7 @@ def cmd_runs(a):
     budgets = [float(b) for b in a.budgets.split(",")]
     modes = a.modes.split(",")
     guided_modes = [m for m in modes if m != "nee+bsdf"]
-    prep = 0.0
-    prep_parts = {}
-    if guided_modes:
-        # Preprocessing once through the pipeline (its stages time themselves); rerun from scratch so
-        # that the times are this run's.
-        for stage in ("photons", "caches", "atlas"):
-            for ext in (".h5", ".seconds", ".params"):
-                p = os.path.join(a.out, stage + ext)
-                if os.path.exists(p):
-                    os.remove(p)
-        run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + a.scene, "OUT=" + a.out, "BIN=" + BIN, "atlas"]
-            + a.pipeline_vars)
-        for stage in ("photons", "caches", "atlas"):
-            with open(os.path.join(a.out, stage + ".seconds")) as f:
-                prep_parts[stage] = float(f.read())
-        prep = sum(prep_parts.values())
+    prep, prep_parts = preprocess(a.scene, a.out, a.pipeline_vars) if guided_modes else (0.0, {})
     atlas = os.path.join(a.out, "atlas.h5")
     rows = []
     for b in budgets:
@@ -143,21 +159,13 @@ def cmd_runs(a):
             if render_time <= 0:
                 rows.append(dict(mode=m, budget=b, skipped="preprocessing alone exceeds the budget"))
                 continue
-            cmd = [BIN + "/render", a.scene, "-o", out, "--resolution", res, "--time", "%.3f" % render_time,
-                   "--seed", "7", "-q"]
-            if m != "nee+bsdf":
-                cmd += ["--atlas", atlas, "--mode", m]
-            wall, _, _ = run(cmd)
-            meta = metadata(out)
-            c = compare(out, a.reference)
-            rows.append(dict(mode=m, budget=b, prep=prep if m != "nee+bsdf" else 0.0, render_wall=wall,
-                             total=wall + (prep if m != "nee+bsdf" else 0.0), spp=int(meta["iris:spp"]),
-                             sampling_seconds=float(meta["iris:seconds"]), relmse=c["relmse"],
-                             relmse_trimmed=c["relmse_trimmed"], mape=c["mape"],
-                             nonfinite=int(meta.get("iris:nonfinite_samples", "0")),
-                             decision=meta.get("iris:auto_guide", ""), image=out))
-            print("  %-16s %5.1f s: relMSE %.4g (%s spp)%s" % (m, b, c["relmse"], meta["iris:spp"],
-                  ("  [" + meta["iris:auto_guide"].split(":")[0] + "]") if meta.get("iris:auto_guide") else ""))
+            x = render_and_compare(a.scene, out, res, render_time, a.reference,
+                                   ["--atlas", atlas, "--mode", m] if m != "nee+bsdf" else [])
+            x.update(mode=m, budget=b, prep=prep if m != "nee+bsdf" else 0.0)
+            x["total"] = x["render_wall"] + x["prep"]
+            rows.append(x)
+            print("  %-16s %5.1f s: relMSE %.4g (%s spp)%s" % (m, b, x["relmse"], x["spp"],
+                  ("  [" + x["decision"].split(":")[0] + "]") if x["decision"] else ""))
     info = dict(scene=a.scene, name=a.name, resolution=res, reference=a.reference,
                 reference_spp=ref_meta.get("iris:spp"), prep=prep, prep_parts=prep_parts,
                 atlas_bytes=os.path.getsize(atlas) if guided_modes else 0,
@@ -177,6 +185,67 @@ def cmd_runs(a):
     with open(os.path.join(a.out, "results.json.tmp"), "w") as f:
         json.dump(info, f, indent=1)
     os.replace(os.path.join(a.out, "results.json.tmp"), os.path.join(a.out, "results.json"))
+
+
+def cmd_params(a):
+    """The thesis's parameter studies at equal total time: one pipeline setting varied at a time from the
+    defaults, fixed guiding (nee+bsdf+cache, so that auto's choice does not hide the setting's effect)
+    against nee+bsdf at the same budget."""
+    w, h = scaled_resolution(a.scene, a.scale)
+    res = "%dx%d" % (w, h)
+    os.makedirs(a.out, exist_ok=True)
+    studies = []
+    for part in a.study.split(";"):
+        var, _, values = part.partition("=")
+        studies.append((var.strip(), [v.strip() for v in values.split(",") if v.strip()]))
+    base = render_and_compare(a.scene, os.path.join(a.out, "nee_bsdf.exr"), res, a.budget, a.reference, [])
+    print("  nee+bsdf %.0f s: relMSE %.4g (%d spp)" % (a.budget, base["relmse"], base["spp"]))
+    rows = []
+    for var, values in studies:
+        for v in values:
+            prep, parts = preprocess(a.scene, a.out, ["%s=%s" % (var, v)])
+            if prep >= a.budget:
+                rows.append(dict(var=var, value=v, prep=prep, skipped=True))
+                continue
+            x = render_and_compare(a.scene, os.path.join(a.out, "%s-%s.exr" % (var, v)), res, a.budget - prep,
+                                   a.reference, ["--atlas", os.path.join(a.out, "atlas.h5"), "--mode",
+                                                 "nee+bsdf+cache"])
+            x.update(var=var, value=v, prep=prep, prep_parts=parts, total=prep + x["render_wall"],
+                     atlas_bytes=os.path.getsize(os.path.join(a.out, "atlas.h5")))
+            rows.append(x)
+            print("  %s=%s: prep %.2f s, relMSE %.4g (%d spp)" % (var, v, prep, x["relmse"], x["spp"]))
+    eff = lambda x: 1.0 / (x["relmse"] * x["total"])
+    base["total"] = base["render_wall"]
+    lines = ["## Parameter studies: `%s` at %g s (%s)" % (a.name, a.budget, res), "",
+             "`make -f pipelines/bench.mk params PARAM_SCENE=%s`, %s, %d threads. One pipeline setting "
+             "(pipelines/guided.mk) is varied at a time, the others at their defaults; each guided render "
+             "(`--mode nee+bsdf+cache`, fixed guiding) gets `--time` = %g s - its preprocessing, and is compared "
+             "with the unguided reference (%s). Efficiency = 1 / (relMSE x total time), as a ratio to nee+bsdf "
+             "at %g s (relMSE %.4g, %d spp). Per-sample relMSE x spp separates the quality of the guiding from "
+             "its cost. One render per cell, seed 7: the rows of the default setting, repeated in every table, "
+             "show the run-to-run spread."
+             % (a.name, time.strftime("%Y-%m-%d"), os.cpu_count(), a.budget, a.reference, a.budget,
+                base["relmse"], base["spp"]), ""]
+    for var, values in studies:
+        lines += ["### %s" % var, "",
+                  "| %s | preprocessing (s) | atlas (MB) | spp | relMSE | relMSE x spp | trimmed relMSE | "
+                  "efficiency vs nee+bsdf |" % var, "|---|---|---|---|---|---|---|---|"]
+        for x in rows:
+            if x["var"] != var:
+                continue
+            if x.get("skipped"):
+                lines.append("| %s | %.2f | | | preprocessing exceeds the budget | | | |" % (x["value"], x["prep"]))
+                continue
+            lines.append("| %s | %.2f | %.1f | %d | %.4g | %.3g | %.4g | %.2f |"
+                         % (x["value"], x["prep"], x["atlas_bytes"] / 1e6, x["spp"], x["relmse"],
+                            x["relmse"] * x["spp"], x["relmse_trimmed"], eff(x) / eff(base)))
+        lines.append("")
+    lines.append("nee+bsdf alone: relMSE x spp %.3g." % (base["relmse"] * base["spp"]))
+    os.makedirs(os.path.dirname(a.output) or ".", exist_ok=True)
+    with open(a.output + ".tmp", "w") as f:
+        f.write("\n".join(lines) + "\n")
+    os.replace(a.output + ".tmp", a.output)
+    print("wrote %s" % a.output)
 
 
 # ---- report ---------------------------------------------------------------------------------------
@@ -395,6 +464,16 @@ def main():
     t.add_argument("-o", "--output", required=True)
     t.add_argument("--assets", required=True)
     t.set_defaults(func=cmd_report)
+    q = sub.add_parser("params")
+    q.add_argument("--scene", required=True)
+    q.add_argument("--name", required=True)
+    q.add_argument("--scale", type=float, default=1.0)
+    q.add_argument("--budget", type=float, required=True, help="total seconds per render")
+    q.add_argument("--reference", required=True)
+    q.add_argument("--study", required=True, help="VAR=v1,v2,...;VAR2=... (pipelines/guided.mk settings)")
+    q.add_argument("--out", required=True)
+    q.add_argument("-o", "--output", required=True)
+    q.set_defaults(func=cmd_params)
     a = p.parse_args()
     a.func(a)
 
