@@ -198,10 +198,15 @@ def cmd_params(a):
     for part in a.study.split(";"):
         var, _, values = part.partition("=")
         studies.append((var.strip(), [v.strip() for v in values.split(",") if v.strip()]))
-    base = render_and_compare(a.scene, os.path.join(a.out, "nee_bsdf.exr"), res, a.budget, a.reference, [])
-    print("  nee+bsdf %.0f s: relMSE %.4g (%d spp)" % (a.budget, base["relmse"], base["spp"]))
-    rows = []
+    rows, bases = [], {}
     for var, values in studies:
+        # An unguided render beside each study: on a shared machine the speed drifts over minutes, and
+        # each table's ratios should be to a baseline measured at about the same time.
+        base = render_and_compare(a.scene, os.path.join(a.out, "nee_bsdf-%s.exr" % var), res, a.budget,
+                                  a.reference, [])
+        base["total"] = base["render_wall"]
+        bases[var] = base
+        print("  %s: nee+bsdf %.0f s: relMSE %.4g (%d spp)" % (var, a.budget, base["relmse"], base["spp"]))
         for v in values:
             prep, parts = preprocess(a.scene, a.out, ["%s=%s" % (var, v)])
             if prep >= a.budget:
@@ -214,33 +219,33 @@ def cmd_params(a):
                      atlas_bytes=os.path.getsize(os.path.join(a.out, "atlas.h5")))
             rows.append(x)
             print("  %s=%s: prep %.2f s, relMSE %.4g (%d spp)" % (var, v, prep, x["relmse"], x["spp"]))
-    eff = lambda x: 1.0 / (x["relmse"] * x["total"])
-    base["total"] = base["render_wall"]
+    eff = lambda x: 1.0 / (x["relmse"] * x["total"])  # trimmed: the same with the worst 0.1 % of pixels dropped
     lines = ["## Parameter studies: `%s` at %g s (%s)" % (a.name, a.budget, res), "",
              "`make -f pipelines/bench.mk params PARAM_SCENE=%s`, %s, %d threads. One pipeline setting "
              "(pipelines/guided.mk) is varied at a time, the others at their defaults; each guided render "
              "(`--mode nee+bsdf+cache`, fixed guiding) gets `--time` = %g s - its preprocessing, and is compared "
-             "with the unguided reference (%s). Efficiency = 1 / (relMSE x total time), as a ratio to nee+bsdf "
-             "at %g s (relMSE %.4g, %d spp). Per-sample relMSE x spp separates the quality of the guiding from "
-             "its cost. One render per cell, seed 7: the rows of the default setting, repeated in every table, "
-             "show the run-to-run spread."
-             % (a.name, time.strftime("%Y-%m-%d"), os.cpu_count(), a.budget, a.reference, a.budget,
-                base["relmse"], base["spp"]), ""]
+             "with the unguided reference (%s). Efficiency = 1 / (relMSE x total time), as a ratio to a nee+bsdf "
+             "render of %g s made just before each table's renders. relMSE x spp (per-sample error) separates the "
+             "quality of the guiding from its cost and from the machine's speed. One render per cell, seed 7: "
+             "the rows of the default setting, repeated in every table, show the run-to-run spread."
+             % (a.name, time.strftime("%Y-%m-%d"), os.cpu_count(), a.budget, a.reference, a.budget), ""]
     for var, values in studies:
-        lines += ["### %s" % var, "",
+        base = bases[var]
+        lines += ["### %s" % var, "", "nee+bsdf: relMSE %.4g at %d spp (relMSE x spp %.3g)."
+                  % (base["relmse"], base["spp"], base["relmse"] * base["spp"]), "",
                   "| %s | preprocessing (s) | atlas (MB) | spp | relMSE | relMSE x spp | trimmed relMSE | "
-                  "efficiency vs nee+bsdf |" % var, "|---|---|---|---|---|---|---|---|"]
+                  "efficiency vs nee+bsdf | same, trimmed |" % var, "|---|---|---|---|---|---|---|---|---|"]
         for x in rows:
             if x["var"] != var:
                 continue
             if x.get("skipped"):
-                lines.append("| %s | %.2f | | | preprocessing exceeds the budget | | | |" % (x["value"], x["prep"]))
+                lines.append("| %s | %.2f | | | preprocessing exceeds the budget | | | | |" % (x["value"], x["prep"]))
                 continue
-            lines.append("| %s | %.2f | %.1f | %d | %.4g | %.3g | %.4g | %.2f |"
+            lines.append("| %s | %.2f | %.1f | %d | %.4g | %.3g | %.4g | %.2f | %.2f |"
                          % (x["value"], x["prep"], x["atlas_bytes"] / 1e6, x["spp"], x["relmse"],
-                            x["relmse"] * x["spp"], x["relmse_trimmed"], eff(x) / eff(base)))
+                            x["relmse"] * x["spp"], x["relmse_trimmed"], eff(x) / eff(base),
+                            base["relmse_trimmed"] * base["total"] / (x["relmse_trimmed"] * x["total"])))
         lines.append("")
-    lines.append("nee+bsdf alone: relMSE x spp %.3g." % (base["relmse"] * base["spp"]))
     os.makedirs(os.path.dirname(a.output) or ".", exist_ok=True)
     with open(a.output + ".tmp", "w") as f:
         f.write("\n".join(lines) + "\n")
