@@ -1,5 +1,7 @@
 // How much a cache is worth at a vertex: the probability alpha of BSDF sampling in the one-sample
-// mixture p_mix = alpha p_bsdf + (1 - alpha) p_cache (DESIGN.md 4.3), chosen per cache from the cache's
+// mixture alpha p_lobe + (1 - alpha) p_cache (DESIGN.md 4.3) that replaces the BSDF's diffuse lobe
+// (the whole BSDF where it has one lobe; a layered BSDF's coat keeps its own share: render's
+// integrator), chosen per cache from the cache's
 // own distribution instead of one constant for the whole scene (issue 4: "a per-cache BSDF/cache
 // selection probability that reflects how useful the cache is").
 //

@@ -19,7 +19,7 @@ namespace iris {
 
 enum class GuideMode : uint8_t {
     NeeBsdf,       // the unguided path tracer (what render does without an atlas)
-    NeeCache,      // NEE + continuation from the cache only (BSDF fallback where no cache serves)
+    NeeCache,      // NEE + the cache in place of the BSDF's diffuse lobe (BSDF where no cache serves)
     BsdfCache,     // no NEE; one-sample mixture of BSDF and cache sampling
     NeeBsdfCache,  // NEE + one-sample mixture of BSDF and cache sampling, all MIS-combined (default)
 };
