@@ -419,6 +419,22 @@ double diffuse_fresnel_integral(double eta) {
     return xc + sum / (3.0 * n);
 }
 
+// Probability of bsdf_sample's coat lobe at wi (front side), for the BSDFs with a diffuse lobe beside it.
+float coat_share(const Bsdf& b, Vec3 wi) {
+    switch (b.type) {
+        case BsdfType::Plastic:
+        case BsdfType::RoughPlastic:
+            return plastic_prob_specular(fresnel_dielectric(wi.z, b.ior), b.specular_sampling_weight);
+        case BsdfType::Ward: return b.specular_sampling_weight < 1 ? b.specular_sampling_weight : 0.0f;
+        default: return 0.0f;
+    }
+}
+// Whether the replaceable part is the cosine lobe (layered BSDFs) rather than the whole BSDF.
+bool layered(const Bsdf& b) {
+    return b.type == BsdfType::Plastic || b.type == BsdfType::RoughPlastic ||
+           (b.type == BsdfType::Ward && b.specular_sampling_weight < 1);
+}
+
 }  // namespace
 
 // ---- Public API -------------------------------------------------------------------------------------------
@@ -450,24 +466,6 @@ float bsdf_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
     }
     return pdf_front(b, wi, wo);
 }
-
-namespace {
-// Probability of bsdf_sample's coat lobe at wi (front side), for the BSDFs with a diffuse lobe beside it.
-float coat_share(const Bsdf& b, Vec3 wi) {
-    switch (b.type) {
-        case BsdfType::Plastic:
-        case BsdfType::RoughPlastic:
-            return plastic_prob_specular(fresnel_dielectric(wi.z, b.ior), b.specular_sampling_weight);
-        case BsdfType::Ward: return b.specular_sampling_weight < 1 ? b.specular_sampling_weight : 0.0f;
-        default: return 0.0f;
-    }
-}
-// Whether the replaceable part is the cosine lobe (layered BSDFs) rather than the whole BSDF.
-bool layered(const Bsdf& b) {
-    return b.type == BsdfType::Plastic || b.type == BsdfType::RoughPlastic ||
-           (b.type == BsdfType::Ward && b.specular_sampling_weight < 1);
-}
-}  // namespace
 
 float bsdf_guidable_share(const Bsdf& b, Vec3 wi) {
     if (bsdf_is_delta(b)) return 0.0f;

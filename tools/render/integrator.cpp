@@ -225,7 +225,7 @@ namespace {
 
 // Per pilot pixel: sum and sum of squares of the luminance of its samples.
 struct PilotPixel {
-    double sum = 0, sum2 = 0;  // of the samples' luminance
+    double sum = 0, sum2 = 0;
 };
 
 // Adds samples [s0, s1) of every pilot pixel (every stride-th pixel in each direction) to `acc`;
