@@ -108,7 +108,10 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         }
         const float k_cache = (1 - alpha) * g;  // probability of the cache technique (0 unguided)
         auto mix_from = [&](Vec3 wo, float p_bsdf, float p_cache) {
-            return std::max(0.0f, p_bsdf + (1 - alpha) * (g * p_cache - bsdf_guidable_pdf(bsdf, wi, wo)));
+            // Where the whole BSDF is replaceable (g = 1) q is p_bsdf itself (bsdf.h's contract): no
+            // second evaluation of the BSDF's density.
+            const float q = g < 1 ? bsdf_guidable_pdf(bsdf, wi, wo) : p_bsdf;
+            return std::max(0.0f, p_bsdf + (1 - alpha) * (g * p_cache - q));
         };
 
         // The continuation's random numbers are drawn first, so that where the cache technique will be
