@@ -15,7 +15,8 @@
 // image. Measured on this scene at 1024 spp: bsdf+cache's largest pixel |z| was 4.6-6.1 in six runs
 // (above the threshold of ~4.9 in three), the NEE modes' at most 3.8. At 4096 spp bsdf+cache's largest
 // |z| in six runs was 4.3. So bsdf+cache renders 4096 spp, the others 1024 (about 20 s in all on two
-// cores). The per-pixel test cannot see a 5 % bias in bsdf+cache (its pixels are too noisy: |z| <= 3.9
+// cores). nee+bsdf+cache runs twice: as the fixed mode renders it (the first vertex guided) and as the
+// deep setting --mode auto may choose (every vertex guided, Russian roulette from depth 10). The per-pixel test cannot see a 5 % bias in bsdf+cache (its pixels are too noisy: |z| <= 3.9
 // for the scaled image); the block and image tests can. And the test proves its power: every mode's
 // guided image scaled by 1.05 must be rejected (measured in six runs: per-pixel |z| 6.5-8.8 for the NEE
 // modes, image-mean |z| 13-18 for all three modes).
@@ -23,6 +24,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -41,9 +43,14 @@ struct Mode {
     const char* name;
     int spp;
     bool direct_atlas;  // bsdf+cache has no NEE: its caches include the direct light (fill-caches --direct)
+    const char* extra = "";
 };
-const Mode kModes[] = {{"nee+cache", 1024, false}, {"bsdf+cache", 4096, true}, {"nee+bsdf+cache", 1024, false}};
-constexpr int kModeCount = 3;
+// The last: the deep setting --mode auto may choose (every vertex guided, roulette from a later depth).
+const Mode kModes[] = {{"nee+cache", 1024, false},
+                       {"bsdf+cache", 4096, true},
+                       {"nee+bsdf+cache", 1024, false},
+                       {"nee+bsdf+cache", 1024, false, "--guide-vertices 0 --rr-depth 10"}};
+constexpr int kModeCount = 4;
 
 // Two-sided normal critical value for tail probability p: z with erfc(z / sqrt 2) = p (bisection).
 double normal_critical(double p) {
@@ -172,21 +179,23 @@ TEST(GuidingUnbiased, GuidedModesAgreeWithUnguidedPerPixel) {
 
     int seed = 2;
     for (const Mode& m : kModes) {
-        SCOPED_TRACE(m.name);
-        const Layers guided = render(scene, dir, m.name,
+        const std::string label = std::string(m.name) + (*m.extra ? " (deep)" : "");
+        SCOPED_TRACE(label + " " + m.extra);
+        const Layers guided = render(scene, dir, "mode" + std::to_string(seed),
                                      std::string("--mode ") + m.name + " --spp " + std::to_string(m.spp) +
-                                         " --seed " + std::to_string(seed++) + " --atlas " +
-                                         dir.file(m.direct_atlas ? "atlas_direct.h5" : "atlas.h5"));
+                                         " --seed " + std::to_string(seed) + " --atlas " +
+                                         dir.file(m.direct_atlas ? "atlas_direct.h5" : "atlas.h5") + " " + m.extra);
+        ++seed;
         ASSERT_EQ(guided.w, unguided.w);
         const Verdict v = compare(guided, unguided, 1.0, z_crit);
-        std::printf("%-15s largest |z|: pixel %.2f (%s), block %.2f, image %.2f\n", m.name, v.worst_z[0],
+        std::printf("%-22s largest |z|: pixel %.2f (%s), block %.2f, image %.2f\n", label.c_str(), v.worst_z[0],
                     v.worst_where[0].c_str(), v.worst_z[1], v.worst_z[2]);
-        EXPECT_EQ(v.rejections, 0) << m.name << " disagrees with the unguided render:\n" << v.log;
+        EXPECT_EQ(v.rejections, 0) << label << " disagrees with the unguided render:\n" << v.log;
         // Power: the same test must reject an image 5 % too bright.
         const Verdict biased = compare(guided, unguided, 1.05, z_crit);
-        std::printf("%-15s x 1.05:      pixel %.2f, block %.2f, image %.2f\n", m.name, biased.worst_z[0],
+        std::printf("%-22s x 1.05:      pixel %.2f, block %.2f, image %.2f\n", label.c_str(), biased.worst_z[0],
                     biased.worst_z[1], biased.worst_z[2]);
-        EXPECT_GT(biased.rejections, 0) << "the test cannot tell a 5 % bias in " << m.name;
+        EXPECT_GT(biased.rejections, 0) << "the test cannot tell a 5 % bias in " << label;
     }
 }
 
@@ -215,6 +224,46 @@ TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) {
                     v.worst_where[0].c_str(), v.worst_z[1], v.worst_z[2]);
         EXPECT_EQ(v.rejections, 0) << mode << " disagrees with the unguided render on the layered tiles box:\n" << v.log;
     }
+}
+
+// --mode auto weighs unguided sampling against guiding the first vertex and, unless the user fixed
+// --guide-vertices or --rr-depth, guiding every vertex with Russian roulette from twice the scene's
+// depth (the caustic box's rrDepth is the default, 5); the image records every candidate the pilot
+// measured and the setting it rendered with, and renders what it chose.
+TEST(GuidingAuto, WeighsEveryVertexOnlyWhereTheUserLeftTheChoice) {
+    TempDir dir;
+    const std::string scene = data_file("guiding/caustic_box.xml");
+    ASSERT_TRUE(build_atlases(scene, dir));
+    auto metadata = [&](const std::string& name, const std::string& extra) {
+        const std::string out = dir.file(name + ".exr");
+        const std::string cmd = tool("render") + " " + scene + " -q --spp 16 --mode auto --atlas " +
+                                dir.file("atlas.h5") + " -o " + out + " " + extra;
+        ToolResult r = run_command(cmd);
+        EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
+        return r.status == 0 ? read_exr(out).metadata : std::map<std::string, std::string>{};
+    };
+    auto has = [](const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; };
+
+    auto m = metadata("default", "");
+    const std::string pilot = m["iris:auto_guide"];
+    EXPECT_TRUE(has(pilot, "unguided ")) << pilot;
+    EXPECT_TRUE(has(pilot, "first vertex, roulette from depth 5 ")) << pilot;
+    EXPECT_TRUE(has(pilot, "every vertex, roulette from depth 10 ")) << pilot;
+    // The setting rendered is the one the pilot names first (or none: unguided).
+    if (m["iris:mode"] == "nee+bsdf") {
+        EXPECT_TRUE(has(pilot, "unguided:")) << pilot;
+        EXPECT_EQ(m.count("iris:guiding"), 0u);
+    } else {
+        EXPECT_TRUE(has(pilot, "guided (" + m["iris:guiding"] + "):")) << pilot;
+    }
+
+    m = metadata("two", "--guide-vertices 2");
+    EXPECT_TRUE(has(m["iris:auto_guide"], "first 2 vertices, roulette from depth 5 ")) << m["iris:auto_guide"];
+    EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
+
+    m = metadata("rr", "--rr-depth 7");
+    EXPECT_TRUE(has(m["iris:auto_guide"], "first vertex, roulette from depth 7 ")) << m["iris:auto_guide"];
+    EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
 }
 
 }  // namespace

@@ -261,26 +261,55 @@ double run_pilot(const Scene& scene, const Camera& camera, int width, int height
 
 }  // namespace
 
+std::vector<PathSettings> guided_candidates(const PathSettings& guided, bool expand) {
+    std::vector<PathSettings> c{guided};
+    if (expand) {
+        PathSettings deep = guided;
+        deep.guide_vertices = 1 << 30;
+        deep.rr_depth = guided.rr_depth >= (1 << 29) ? guided.rr_depth : 2 * guided.rr_depth;
+        c.push_back(deep);
+    }
+    return c;
+}
+
+std::string describe(const PathSettings& s) {
+    std::string v = s.guide_vertices >= (1 << 29) ? "every vertex"
+                    : s.guide_vertices == 1       ? "first vertex"
+                                                  : "first " + std::to_string(s.guide_vertices) + " vertices";
+    if (s.rr_depth < (1 << 29)) v += ", roulette from depth " + std::to_string(s.rr_depth);
+    return v;
+}
+
 GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width, int height, uint64_t seed,
-                             const PathSettings& guided, double budget_seconds) {
-    // Every 4th pixel in each direction. Passes of 2 samples per pixel alternate between the two
-    // technique sets (so neither alone pays for cold caches or a busy machine) until the budget is
-    // spent, with at least kMinSpp and at most kMaxSpp samples per pilot pixel: rare bright paths
-    // (caustics, fireflies) dominate relMSE, and only enough samples see them.
+                             const std::vector<PathSettings>& guided, double budget_seconds) {
+    // Every 4th pixel in each direction. Passes of 2 samples per pixel alternate between the
+    // candidates (so none alone pays for cold caches or a busy machine) until the budget is spent,
+    // with at least kMinSpp and at most kMaxSpp samples per pilot pixel: rare bright paths (caustics,
+    // fireflies) dominate relMSE, and only enough samples see them.
     constexpr int kStride = 4, kPass = 2, kMinSpp = 8, kMaxSpp = 256;
-    PathSettings unguided = guided;
+    GuideDecision d;
+    PathSettings unguided = guided.at(0);
     unguided.guide = nullptr;
     unguided.mode = GuideMode::NeeBsdf;
-    std::vector<PilotPixel> u, g;
-    double tu = 0, tg = 0;
+    unguided.guide_vertices = 0;
+    d.candidates.push_back({unguided});
+    for (const PathSettings& g : guided) d.candidates.push_back({g});
+    const size_t n_cand = d.candidates.size();
+    std::vector<std::vector<PilotPixel>> acc(n_cand);
+    std::vector<double> seconds(n_cand, 0.0);
     int spp = 0;
-    while (spp < kMaxSpp && (spp < kMinSpp || tu + tg < budget_seconds)) {
-        tu += run_pilot(scene, camera, width, height, kStride, spp, spp + kPass, seed, unguided, u);
-        tg += run_pilot(scene, camera, width, height, kStride, spp, spp + kPass, seed, guided, g);
+    double total = 0;
+    while (spp < kMaxSpp && (spp < kMinSpp || total < budget_seconds)) {
+        for (size_t c = 0; c < n_cand; ++c) {
+            const double t = run_pilot(scene, camera, width, height, kStride, spp, spp + kPass, seed,
+                                       d.candidates[c].settings, acc[c]);
+            seconds[c] += t;
+            total += t;
+        }
         spp += kPass;
     }
-    // Relative noise of each against the same per-pixel value, so that the two are judged on the same
-    // scale, what relMSE against a reference weighs: the mean of both techniques' samples over the
+    // Relative noise of each against the same per-pixel value, so that all are judged on the same
+    // scale, what relMSE against a reference weighs: the mean of all candidates' samples over the
     // pilot pixel and its 8 neighbours. The pixel's own mean would not do: one rare bright sample (a
     // caustic path found by BSDF sampling) raises it with the variance, so that variance / mean^2
     // stays near the sample count however heavy the tail, and the pilot would judge unguided sampling
@@ -288,48 +317,60 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
     // scenes: this keeps the egg's predicted variance ratio at 1.5-1.8 where the own mean gave 1.3
     // (its equal-spp renders: ~2) and moves no other scene's by more than 10 %.
     const int px = (width + kStride - 1) / kStride, py = (height + kStride - 1) / kStride;
-    double ru = 0, rg = 0;
+    std::vector<double> rel(n_cand, 0.0);
     for (int j = 0; j < py; ++j)
         for (int i = 0; i < px; ++i) {
             double sum = 0;
             int count = 0;
             for (int y = std::max(0, j - 1); y <= std::min(py - 1, j + 1); ++y)
-                for (int x = std::max(0, i - 1); x <= std::min(px - 1, i + 1); ++x, ++count) {
-                    const size_t k = size_t(y) * size_t(px) + size_t(x);
-                    sum += u[k].sum + g[k].sum;
-                }
-            const double m = sum / (2.0 * spp * count);
-            const PilotPixel& a = u[size_t(j) * size_t(px) + size_t(i)];
-            const PilotPixel& b = g[size_t(j) * size_t(px) + size_t(i)];
-            const double vu = std::max(0.0, (a.sum2 - a.sum * a.sum / spp) / (spp - 1));
-            const double vg = std::max(0.0, (b.sum2 - b.sum * b.sum / spp) / (spp - 1));
-            ru += vu / (m * m + 0.01);
-            rg += vg / (m * m + 0.01);
+                for (int x = std::max(0, i - 1); x <= std::min(px - 1, i + 1); ++x, ++count)
+                    for (size_t c = 0; c < n_cand; ++c) sum += acc[c][size_t(y) * size_t(px) + size_t(x)].sum;
+            const double m = sum / (double(n_cand) * spp * count);
+            for (size_t c = 0; c < n_cand; ++c) {
+                const PilotPixel& a = acc[c][size_t(j) * size_t(px) + size_t(i)];
+                rel[c] += std::max(0.0, (a.sum2 - a.sum * a.sum / spp) / (spp - 1)) / (m * m + 0.01);
+            }
         }
-    GuideDecision d;
-    const double pixels = double(std::max<size_t>(1, u.size())), n = pixels * spp;
-    d.unguided.rel_variance = ru / pixels;
-    d.guided.rel_variance = rg / pixels;
-    d.unguided.seconds_per_sample = tu / n;
-    d.guided.seconds_per_sample = tg / n;
-    d.pilot_seconds = tu + tg;
+    const double pixels = double(std::max<size_t>(1, acc[0].size())), n = pixels * spp;
+    d.pilot_seconds = total;
     d.pilot_spp = spp;
-    const double eu = d.unguided.rel_variance * d.unguided.seconds_per_sample;
-    const double eg = d.guided.rel_variance * d.guided.seconds_per_sample;
-    // Efficiency of guiding relative to unguided; a scene without noise at all (0/0) stays unguided.
-    d.efficiency_ratio = eg > 0 ? eu / eg : (eu > 0 ? 1e30 : 1.0);
-    d.guide = d.efficiency_ratio > kGuideMargin;
+    // Efficiency of each guided candidate relative to unguided; a scene without noise at all (0/0)
+    // stays unguided. The best guided one is taken only by a margin (kGuideMargin).
+    std::vector<double> noise_time(n_cand);
+    for (size_t c = 0; c < n_cand; ++c) {
+        d.candidates[c].rel_variance = rel[c] / pixels;
+        d.candidates[c].seconds_per_sample = seconds[c] / n;
+        noise_time[c] = d.candidates[c].rel_variance * d.candidates[c].seconds_per_sample;
+    }
+    auto ratio = [&](size_t c) {
+        return noise_time[c] > 0 ? noise_time[0] / noise_time[c] : (noise_time[0] > 0 ? 1e30 : 1.0);
+    };
+    size_t best = 1;
+    for (size_t c = 2; c < n_cand; ++c)
+        if (ratio(c) > ratio(best)) best = c;
+    d.efficiency_ratio = ratio(best);
+    d.chosen = d.efficiency_ratio > kGuideMargin ? int(best) : 0;
     return d;
 }
 
 std::string describe(const GuideDecision& d) {
-    char buf[320];
-    std::snprintf(buf, sizeof buf,
-                  "%s: pilot predicts %.2fx the efficiency of unguided sampling (relative variance %.3g -> %.3g, "
-                  "%.3g -> %.3g us per sample; pilot %d spp on every 16th pixel, %.2f s)",
-                  d.guide ? "guided" : "unguided", d.efficiency_ratio, d.unguided.rel_variance, d.guided.rel_variance,
-                  d.unguided.seconds_per_sample * 1e6, d.guided.seconds_per_sample * 1e6, d.pilot_spp, d.pilot_seconds);
-    return buf;
+    // e.g. "guided (first vertex, roulette from depth 5): pilot predicts 1.35x the efficiency of
+    // unguided sampling (relative variance, us per sample: unguided 26, 0.87; first vertex, ... 15, 1.1; ...)"
+    const size_t best = d.chosen > 0 ? size_t(d.chosen) : 1;
+    std::string s = d.guide() ? "guided (" + describe(d.candidates[best].settings) + ")" : "unguided";
+    char buf[160];
+    std::snprintf(buf, sizeof buf, ": pilot predicts %.2fx the efficiency of unguided sampling %s(", d.efficiency_ratio,
+                  d.guide() ? "" : "for the best guided setting ");
+    s += buf;
+    s += "relative variance, us per sample:";
+    for (size_t c = 0; c < d.candidates.size(); ++c) {
+        const auto& k = d.candidates[c];
+        std::snprintf(buf, sizeof buf, "%s %s %.3g, %.3g", c ? ";" : "", c ? describe(k.settings).c_str() : "unguided",
+                      k.rel_variance, k.seconds_per_sample * 1e6);
+        s += buf;
+    }
+    std::snprintf(buf, sizeof buf, "; pilot %d spp on every 16th pixel, %.2f s)", d.pilot_spp, d.pilot_seconds);
+    return s + buf;
 }
 
 Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* stats) {
@@ -345,8 +386,8 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     PathSettings ps;
     ps.guide = opt.guide;
     ps.mode = opt.guide ? opt.mode : GuideMode::NeeBsdf;
-    if (opt.guide_vertices < 0) throw std::runtime_error("--guide-vertices must be >= 0");
-    if (opt.guide_vertices > 0) ps.guide_vertices = opt.guide_vertices;
+    if (opt.guide_vertices < -1) throw std::runtime_error("--guide-vertices must be >= 0");
+    ps.guide_vertices = opt.guide_vertices < 0 ? 1 : opt.guide_vertices == 0 ? 1 << 30 : opt.guide_vertices;
     if (!opt.guide && opt.mode == GuideMode::BsdfCache) ps.mode = GuideMode::BsdfCache;
     ps.max_depth = opt.max_depth >= -1 ? opt.max_depth : scene.defaults.max_depth;
     ps.rr_depth = opt.rr_depth >= -1 ? opt.rr_depth : scene.defaults.rr_depth;
@@ -370,12 +411,11 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     GuideDecision decision;
     if (opt.auto_guide && ps.guide) {
         // A pilot of ~3 % of a time budget (or the minimum for a fixed spp).
-        decision = decide_guiding(scene, camera, width, height, opt.seed, ps, timed ? 0.03 * opt.time : 0.0);
+        const bool expand = opt.guide_vertices < 0 && opt.rr_depth < -1;
+        decision = decide_guiding(scene, camera, width, height, opt.seed, guided_candidates(ps, expand),
+                                  timed ? 0.03 * opt.time : 0.0);
         if (!opt.quiet) std::fprintf(stderr, "render: %s\n", describe(decision).c_str());
-        if (!decision.guide) {
-            ps.guide = nullptr;
-            ps.mode = GuideMode::NeeBsdf;
-        }
+        ps = decision.candidates[size_t(decision.chosen)].settings;
     }
     Progress progress("render", timed ? uint64_t(opt.time * 1000) : uint64_t(target_spp) * tile_count, opt.quiet);
 
@@ -450,6 +490,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         img.metadata["iris:tool"] = "render";
         img.metadata["iris:mode"] = guide_mode_name(ps.mode);
         if (opt.auto_guide && opt.guide) img.metadata["iris:auto_guide"] = describe(decision);
+        if (ps.guide) img.metadata["iris:guiding"] = describe(ps);
         return img;
     };
 

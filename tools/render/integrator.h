@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "formats/exr.h"
 #include "libcommon/scene.h"
@@ -27,10 +28,11 @@ struct RenderOptions {
     std::string command_line;     // recorded in the output's metadata
     const Guide* guide = nullptr; // cache atlas to guide with (null = unguided)
     GuideMode mode = GuideMode::NeeBsdfCache;  // how techniques combine when guided
-    // Guide the first this many non-specular vertices of a path; 0 = all. Measured at equal time on all
-    // six seed scenes (docs/BENCHMARKS.md): one is as good as two or better everywhere -- the first
-    // vertex carries most of the variance guiding removes, and each guided vertex costs a lookup.
-    int guide_vertices = 1;
+    // Guide the first this many non-specular vertices of a path; 0 = all; -1 = not given: the first one
+    // (measured at equal time on all six seed scenes, docs/BENCHMARKS.md: as good as two or better
+    // everywhere -- each guided vertex costs a lookup), and with auto_guide also every vertex as a
+    // second guided candidate.
+    int guide_vertices = -1;
     // With a guide: measure unguided and guided sampling in a short pilot first and guide only if the
     // pilot predicts a win at equal time (decide_guiding); the pilot's time counts in the budget.
     bool auto_guide = false;
@@ -40,17 +42,31 @@ struct RenderOptions {
     std::function<void(const Image&)> snapshot;
 };
 
-// The pilot's verdict for automatic guiding: measured noise and cost of unguided and guided sampling on
-// a sparse pixel grid, and whether guiding is expected to win at equal time.
+// Per-path settings resolved from the options and the scene.
+struct PathSettings {
+    int max_depth = -1;
+    int rr_depth = 5;
+    const Guide* guide = nullptr;
+    GuideMode mode = GuideMode::NeeBsdf;
+    // Guide only the first this many non-specular vertices of a path (deeper ones carry little of the
+    // pixel's variance but cost the same lookup).
+    int guide_vertices = 1 << 30;
+};
+
+// The pilot's verdict for automatic guiding: measured noise and cost of each candidate setting on a
+// sparse pixel grid, and the one expected to win at equal time.
 struct GuideDecision {
-    struct Measure {
+    struct Candidate {
+        PathSettings settings;
         double rel_variance = 0;        // mean over pilot pixels of sample variance / (mean^2 + 0.01)
         double seconds_per_sample = 0;  // wall seconds per path sample, all threads working
-    } unguided, guided;
-    double efficiency_ratio = 1;  // (noise x time) unguided / guided; > 1: guiding wins
+    };
+    std::vector<Candidate> candidates;  // [0]: unguided
+    int chosen = 0;
+    double efficiency_ratio = 1;  // (noise x time) unguided / chosen; > 1: guiding wins
     double pilot_seconds = 0;
-    int pilot_spp = 0;            // samples per pilot pixel, each technique set
-    bool guide = false;
+    int pilot_spp = 0;            // samples per pilot pixel, each candidate
+    bool guide() const { return chosen > 0; }
 };
 // One line for the user and the image's metadata.
 std::string describe(const GuideDecision& d);
@@ -66,17 +82,6 @@ struct RenderStats {
     int threads = 0;
 };
 
-// Per-path settings resolved from the options and the scene.
-struct PathSettings {
-    int max_depth = -1;
-    int rr_depth = 5;
-    const Guide* guide = nullptr;
-    GuideMode mode = GuideMode::NeeBsdf;
-    // Guide only the first this many non-specular vertices of a path (deeper ones carry little of the
-    // pixel's variance but cost the same lookup).
-    int guide_vertices = 1 << 30;
-};
-
 // Counters kept per worker and summed at the end.
 struct PathCounters {
     uint64_t rays = 0;
@@ -86,10 +91,21 @@ struct PathCounters {
 // winning (scenes guiding cannot help must not pay for it).
 inline constexpr double kGuideMargin = 1.1;
 
-// Runs the pilot (about budget_seconds, at least a minimum number of samples) for the guided settings
-// and their unguided counterpart.
+// The guided settings the automatic mode weighs against unguided sampling, from the resolved settings
+// `guided`: those themselves, and where `expand` (the user fixed neither --guide-vertices nor
+// --rr-depth) also every non-specular vertex guided with Russian roulette from twice the depth. In
+// closed scenes with caustics (the glass spheres, the mirror boxes) most of the unguided variance
+// comes from deep paths that find a light through glass or a mirror: guided at every vertex and not
+// cut short by roulette they become frequent instead of rare, and that setting wins there at equal
+// time although each guided vertex costs a lookup; elsewhere the first vertex alone is cheaper.
+std::vector<PathSettings> guided_candidates(const PathSettings& guided, bool expand);
+// One line naming a candidate's settings, e.g. "every vertex, roulette from depth 10".
+std::string describe(const PathSettings& s);
+
+// Runs the pilot (about budget_seconds, at least a minimum number of samples) for unguided sampling
+// and each of the guided candidates, and picks the one predicted to be most efficient.
 GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width, int height, uint64_t seed,
-                             const PathSettings& guided, double budget_seconds);
+                             const std::vector<PathSettings>& guided, double budget_seconds);
 
 class Rng;
 // Radiance along the camera ray (one sample of the path-space integral). Never returns NaN/Inf

@@ -38,13 +38,17 @@ int main(int argc, char** argv) {
     app.add_option("--mode", mode,
                    "How sampling techniques combine: nee+bsdf | nee+cache | bsdf+cache | nee+bsdf+cache "
                    "(default with --atlas; without an atlas: nee+bsdf, or bsdf+cache = BSDF sampling only) | auto "
-                   "(with --atlas: a short pilot measures nee+bsdf and nee+bsdf+cache and renders with the one "
-                   "predicted to win at equal time; the pilot counts in --time)");
+                   "(with --atlas: a short pilot measures nee+bsdf and nee+bsdf+cache -- guiding the first vertex, "
+                   "and unless --guide-vertices or --rr-depth is given also every vertex with Russian roulette "
+                   "from twice the depth -- and renders with the one predicted to win at equal time; the pilot "
+                   "counts in --time)");
     app.add_option("--bsdf-fraction", bsdf_fraction,
                    "Probability of BSDF sampling where a cache guides: auto (default: chosen per cache from its "
                    "distribution; caches predicted to gain less than --min-gain are not used) or a constant in [0, 1)");
-    app.add_option("--guide-vertices", opt.guide_vertices,
-                   "Guide only the first N non-specular vertices of each path (0 = all; default 1)");
+    int guide_vertices = -1;
+    app.add_option("--guide-vertices", guide_vertices,
+                   "Guide only the first N non-specular vertices of each path (0 = all; default 1, and with --mode "
+                   "auto the pilot also weighs every vertex with later Russian roulette)");
     app.add_option("--min-gain", guide_options.min_gain,
                    "With --bsdf-fraction auto: least predicted variance reduction for a cache to be used (>= 1)");
     app.add_option("--snapshot", opt.snapshot_interval,
@@ -69,7 +73,12 @@ int main(int argc, char** argv) {
         }
         if (!(guide_options.min_gain >= 1 && std::isfinite(guide_options.min_gain)))
             throw std::runtime_error("--min-gain must be >= 1");
-        if (opt.guide_vertices < 0) throw std::runtime_error("--guide-vertices must be >= 0 (0 = every vertex)");
+        if (app.count("--rr-depth") && opt.rr_depth < -1)
+            throw std::runtime_error("--rr-depth must be >= 1, or -1 for no Russian roulette");
+        if (app.count("--guide-vertices")) {
+            if (guide_vertices < 0) throw std::runtime_error("--guide-vertices must be >= 0 (0 = every vertex)");
+            opt.guide_vertices = guide_vertices;
+        }
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
         opt.command_line = iris::join_args(argc, argv);
