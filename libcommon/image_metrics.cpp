@@ -18,8 +18,11 @@ inline float ref_linear(float v, bool srgb8) { return srgb8 ? srgb_to_linear(v) 
 }  // namespace
 
 ImageMetrics compare_images(const std::vector<float>& test, const std::vector<float>& ref, int width, int height,
-                            const std::vector<PixelRect>& masks, bool ref_is_srgb8) {
+                            const std::vector<PixelRect>& masks, bool ref_is_srgb8,
+                            const std::vector<float>& ref_variance) {
     ImageMetrics m;
+    const bool with_variance = !ref_variance.empty();
+    double ref_noise = 0;
     std::vector<double> per_pixel;
     per_pixel.reserve(size_t(width) * height);
     double sum_t[3] = {0, 0, 0}, sum_r[3] = {0, 0, 0}, sum_t8[3] = {0, 0, 0}, sum_r8[3] = {0, 0, 0};
@@ -35,6 +38,7 @@ ImageMetrics compare_images(const std::vector<float>& test, const std::vector<fl
                 double a = test[i + c], r = ref_linear(ref[i + c], ref_is_srgb8);
                 double e2 = (a - r) * (a - r);
                 px += e2 / (r * r + 0.01);
+                if (with_variance) ref_noise += double(ref_variance[i + c]) / (r * r + 0.01);
                 mape += std::abs(a - r) / (std::abs(r) + 0.01);
                 mse += e2;
                 sum_t[c] += a;
@@ -49,6 +53,7 @@ ImageMetrics compare_images(const std::vector<float>& test, const std::vector<fl
     m.pixels = n;
     if (n == 0) return m;
     m.rel_mse = rel / (3.0 * n);
+    if (with_variance) m.rel_mse_reference_noise = ref_noise / (3.0 * n);
     m.mape = mape / (3.0 * n);
     m.mse = mse / (3.0 * n);
     for (int c = 0; c < 3; ++c) {

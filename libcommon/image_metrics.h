@@ -17,6 +17,11 @@ struct ImageMetrics {
     RGB mean_test, mean_ref;      // per-channel means of the linear images
     RGB mean_test_srgb8, mean_ref_srgb8;  // per-channel means after sRGB encoding and 8-bit clipping (0..255)
     uint64_t pixels = 0;          // pixels compared (outside the mask)
+    // With the reference's per-pixel variance (of its pixel means): mean over pixels and channels of
+    // var_r / (r^2 + 0.01), the part of rel_mse the reference's own noise is expected to contribute
+    // (test and reference independent: E[(a - r)^2] = E[(a - t)^2] + var_r for the truth t). rel_mse
+    // minus this estimates the test's relMSE against the truth; -1 without variances.
+    double rel_mse_reference_noise = -1;
 };
 
 // A rectangle of pixels to leave out (e.g. the Mitsuba banner in the seed references).
@@ -27,8 +32,10 @@ struct PixelRect {
 
 // `test` and `ref` hold width*height*3 linear values. If a `ref_is_srgb8` image is given (a PNG), its
 // values are sRGB-encoded 0..1 and are linearised for the relative metrics.
+// `ref_variance`, if not empty, holds the reference's variance of each pixel mean (3 per pixel).
 ImageMetrics compare_images(const std::vector<float>& test, const std::vector<float>& ref, int width, int height,
-                            const std::vector<PixelRect>& masks = {}, bool ref_is_srgb8 = false);
+                            const std::vector<PixelRect>& masks = {}, bool ref_is_srgb8 = false,
+                            const std::vector<float>& ref_variance = {});
 
 // Per-pixel relative squared error (mean over channels) as a false-colour RGB image (3 floats per
 // pixel, sRGB-encoded 0..1): black = no error, through blue, green, yellow to red = `scale` or more.

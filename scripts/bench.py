@@ -136,6 +136,7 @@ def render_and_compare(scene, out, res, seconds, reference, extra):
     c = compare(out, reference)
     return dict(render_wall=wall, spp=int(meta["iris:spp"]), sampling_seconds=float(meta["iris:seconds"]),
                 relmse=c["relmse"], relmse_trimmed=c["relmse_trimmed"], mape=c["mape"],
+                relmse_reference_noise=c.get("relmse_reference_noise"),
                 nonfinite=int(meta.get("iris:nonfinite_samples", "0")), decision=meta.get("iris:auto_guide", ""),
                 image=out)
 
@@ -345,6 +346,10 @@ def cmd_report(a):
     for r in results:
         name = r["name"]
         rows = [x for x in r["rows"] if "skipped" not in x]
+        for x in rows:
+            # Runs recorded before compare-images estimated the reference's own noise: measured now.
+            if x.get("relmse_reference_noise") is None and os.path.exists(x["image"]):
+                x["relmse_reference_noise"] = compare(x["image"], r["reference"]).get("relmse_reference_noise")
         modes = []
         for x in r["rows"]:
             if x["mode"] not in modes:
@@ -390,7 +395,11 @@ def cmd_report(a):
             cost = (x["sampling_seconds"] / x["spp"]) / (u["sampling_seconds"] / u["spp"])
             eff = (u["relmse"] * u["total"]) / (x["relmse"] * x["total"])
             eff_trim = (u["relmse_trimmed"] * u["total"]) / (x["relmse_trimmed"] * x["total"])
-            summary.append((name, m, bmax, eff, eff_trim, cost, r["prep"] / bmax, x.get("decision", "")))
+            eff_clean = None  # with the reference's own noise (its variance layers) taken out of both relMSEs
+            nu, nx = u.get("relmse_reference_noise"), x.get("relmse_reference_noise")
+            if nu is not None and nx is not None and x["relmse"] > nx and u["relmse"] > nu:
+                eff_clean = ((u["relmse"] - nu) * u["total"]) / ((x["relmse"] - nx) * x["total"])
+            summary.append((name, m, bmax, eff, eff_trim, eff_clean, cost, r["prep"] / bmax, x.get("decision", "")))
             lines.append("- %s at %g s: per-sample cost %.2fx nee+bsdf (sampling seconds per spp, pilot included), "
                          "preprocessing %.1f %% of the budget%s" % (m, bmax, cost, 100 * r["prep"] / bmax,
                                                                      ("; " + x["decision"]) if x.get("decision") else ""))
@@ -432,13 +441,16 @@ def cmd_report(a):
     top = ["### Summary at the largest budget", "",
            "Efficiency from relMSE, and from relMSE with the worst 0.1 % of pixels dropped (one render per cell: "
            "on scenes with fireflies the plain figure swings by tens of percent between seeds, the trimmed one "
-           "much less). `auto` shows what its pilot chose.", "",
-           "| scene | mode | budget (s) | efficiency vs nee+bsdf | same, trimmed relMSE | per-sample cost | "
-           "preprocessing share | auto chose |",
-           "|---|---|---|---|---|---|---|---|"]
-    for name, m, b, eff, eff_trim, cost, share, decision in summary:
-        top.append("| `%s` | %s | %g | %.2f | %.2f | %.2fx | %.1f %% | %s |"
-                   % (name, m, b, eff, eff_trim, cost, 100 * share, decision.split(":")[0] if decision else ""))
+           "much less), and from relMSE less the reference's own share (estimated from the reference's "
+           "variance layers: mean of var_ref / (ref^2 + 0.01); what relMSE against the truth would be, "
+           "on average). `auto` shows what its pilot chose.", "",
+           "| scene | mode | budget (s) | efficiency vs nee+bsdf | same, trimmed relMSE | same, reference noise "
+           "removed | per-sample cost | preprocessing share | auto chose |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for name, m, b, eff, eff_trim, eff_clean, cost, share, decision in summary:
+        top.append("| `%s` | %s | %g | %.2f | %.2f | %s | %.2fx | %.1f %% | %s |"
+                   % (name, m, b, eff, eff_trim, "%.2f" % eff_clean if eff_clean is not None else "n/a", cost,
+                      100 * share, decision.split(":")[0] if decision else ""))
     out = lines[:3] + [""] + top + [""] + lines[3:]
     with open(a.output + ".tmp", "w") as f:
         f.write("\n".join(out).rstrip() + "\n")

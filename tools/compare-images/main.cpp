@@ -19,20 +19,29 @@ bool ends_with(const std::string& s, const std::string& suffix) {
     return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-// RGB data (3 floats per pixel) of an EXR or PNG; *srgb8 tells whether the values are display-encoded.
-std::vector<float> load_rgb(const std::string& path, int* w, int* h, bool* srgb8) {
-    iris::Image img = ends_with(path, ".png") ? iris::read_png(path) : iris::read_exr(path);
-    *srgb8 = ends_with(path, ".png");
-    int r = img.channel_index("R"), g = img.channel_index("G"), b = img.channel_index("B");
-    if (r < 0 || g < 0 || b < 0) throw iris::ImageError(path + ": no R, G, B channels");
-    *w = img.width;
-    *h = img.height;
+// Three channels of an image interleaved (3 floats per pixel); empty if any is missing.
+std::vector<float> interleave(const iris::Image& img, const char* r_name, const char* g_name, const char* b_name) {
+    int r = img.channel_index(r_name), g = img.channel_index(g_name), b = img.channel_index(b_name);
+    if (r < 0 || g < 0 || b < 0) return {};
     std::vector<float> out(size_t(img.width) * img.height * 3);
     for (size_t i = 0; i < size_t(img.width) * img.height; ++i) {
         out[3 * i] = img.data[r][i];
         out[3 * i + 1] = img.data[g][i];
         out[3 * i + 2] = img.data[b][i];
     }
+    return out;
+}
+
+// RGB data (3 floats per pixel) of an EXR or PNG; *srgb8 tells whether the values are display-encoded.
+// `variance`, if given, receives the layers variance.R/G/B where the image has them (render --variance).
+std::vector<float> load_rgb(const std::string& path, int* w, int* h, bool* srgb8, std::vector<float>* variance = nullptr) {
+    iris::Image img = ends_with(path, ".png") ? iris::read_png(path) : iris::read_exr(path);
+    *srgb8 = ends_with(path, ".png");
+    std::vector<float> out = interleave(img, "R", "G", "B");
+    if (out.empty()) throw iris::ImageError(path + ": no R, G, B channels");
+    *w = img.width;
+    *h = img.height;
+    if (variance) *variance = interleave(img, "variance.R", "variance.G", "variance.B");
     return out;
 }
 
@@ -99,7 +108,8 @@ int main(int argc, char** argv) {
         int wt, ht, wr, hr;
         bool t8, r8;
         std::vector<float> test = load_rgb(test_path, &wt, &ht, &t8);
-        std::vector<float> ref = load_rgb(ref_path, &wr, &hr, &r8);
+        std::vector<float> ref_variance;
+        std::vector<float> ref = load_rgb(ref_path, &wr, &hr, &r8, &ref_variance);
         if (wt != wr || ht != hr)
             throw std::runtime_error(test_path + ": size " + std::to_string(wt) + "x" + std::to_string(ht) +
                                      " differs from the reference's " + std::to_string(wr) + "x" + std::to_string(hr));
@@ -113,7 +123,7 @@ int main(int argc, char** argv) {
             rects.push_back(r);
         }
         if (mitsuba_banner) rects.push_back({650, hr - 12, 766, hr});
-        iris::ImageMetrics m = iris::compare_images(test, ref, wt, ht, rects, r8);
+        iris::ImageMetrics m = iris::compare_images(test, ref, wt, ht, rects, r8, ref_variance);
         double worst_mean_diff = 0;
         for (int c = 0; c < 3; ++c) {
             double d = m.mean_ref_srgb8[c] > 0
@@ -121,18 +131,25 @@ int main(int argc, char** argv) {
                            : 0.0;
             worst_mean_diff = std::max(worst_mean_diff, d);
         }
+        // The reference's own expected share of relMSE, where it carries variance layers (null otherwise).
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%.6g", m.rel_mse_reference_noise);
+        const std::string ref_noise = m.rel_mse_reference_noise >= 0 ? buf : "null";
         if (json) {
             std::printf("{\"relmse\": %.6g, \"relmse_trimmed\": %.6g, \"mape\": %.6g, \"mse\": %.6g, "
                         "\"mean_test\": [%.6g, %.6g, %.6g], \"mean_ref\": [%.6g, %.6g, %.6g], "
                         "\"mean_test_srgb8\": [%.4f, %.4f, %.4f], \"mean_ref_srgb8\": [%.4f, %.4f, %.4f], "
-                        "\"worst_mean_diff_percent\": %.4f, \"pixels\": %llu}\n",
+                        "\"worst_mean_diff_percent\": %.4f, \"pixels\": %llu, \"relmse_reference_noise\": %s}\n",
                         m.rel_mse, m.rel_mse_trimmed, m.mape, m.mse, m.mean_test.r, m.mean_test.g, m.mean_test.b,
                         m.mean_ref.r, m.mean_ref.g, m.mean_ref.b, m.mean_test_srgb8.r, m.mean_test_srgb8.g,
                         m.mean_test_srgb8.b, m.mean_ref_srgb8.r, m.mean_ref_srgb8.g, m.mean_ref_srgb8.b,
-                        worst_mean_diff, (unsigned long long)m.pixels);
+                        worst_mean_diff, (unsigned long long)m.pixels, ref_noise.c_str());
         } else {
             std::printf("relMSE            %.6g\nrelMSE (trimmed)  %.6g\nMAPE              %.6g\n", m.rel_mse,
                         m.rel_mse_trimmed, m.mape);
+            if (m.rel_mse_reference_noise >= 0)
+                std::printf("reference noise   %.6g of the relMSE (its variance layers): %.6g without it\n",
+                            m.rel_mse_reference_noise, m.rel_mse - m.rel_mse_reference_noise);
             std::printf("mean linear       test (%.5g, %.5g, %.5g)  reference (%.5g, %.5g, %.5g)\n", m.mean_test.r,
                         m.mean_test.g, m.mean_test.b, m.mean_ref.r, m.mean_ref.g, m.mean_ref.b);
             std::printf("mean sRGB 8-bit   test (%.3f, %.3f, %.3f)  reference (%.3f, %.3f, %.3f)  worst %.3f %%\n",
