@@ -48,8 +48,8 @@ struct PathSettings {
     int rr_depth = 5;
     const Guide* guide = nullptr;
     GuideMode mode = GuideMode::NeeBsdf;
-    // Guide only the first this many non-specular vertices of a path (deeper ones carry little of the
-    // pixel's variance but cost the same lookup).
+    // Guide only the first this many non-specular vertices of a path (each guided vertex costs a
+    // lookup; >= 2^29 = every vertex).
     int guide_vertices = 1 << 30;
 };
 

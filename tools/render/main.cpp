@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
     app.add_option("-t,--threads", opt.threads, "Worker threads (default: all cores)");
     app.add_option("--seed", opt.seed, "Random seed (same seed => same image, for any thread count)");
     app.add_option("--max-depth", opt.max_depth, "Longest path in edges, -1 = unlimited (default: the scene's)");
-    app.add_option("--rr-depth", opt.rr_depth, "Depth at which Russian roulette starts (default: the scene's)");
+    app.add_option("--rr-depth", opt.rr_depth, "Depth at which Russian roulette starts, -1 = none (default: the scene's)");
     app.add_flag("--variance", opt.variance_layer, "Add layers variance.R/G/B (variance of each pixel's estimate)");
     app.add_flag("--sample-count", opt.samples_layer, "Add a layer 'samples' with the samples per pixel");
     app.add_option("-D,--define", defines, "Scene parameter name=value (for $name in the scene file)");
@@ -73,7 +73,7 @@ int main(int argc, char** argv) {
         }
         if (!(guide_options.min_gain >= 1 && std::isfinite(guide_options.min_gain)))
             throw std::runtime_error("--min-gain must be >= 1");
-        if (app.count("--rr-depth") && opt.rr_depth < -1)
+        if (app.count("--rr-depth") && opt.rr_depth < 1 && opt.rr_depth != -1)
             throw std::runtime_error("--rr-depth must be >= 1, or -1 for no Russian roulette");
         if (app.count("--guide-vertices")) {
             if (guide_vertices < 0) throw std::runtime_error("--guide-vertices must be >= 0 (0 = every vertex)");
