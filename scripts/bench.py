@@ -339,8 +339,8 @@ def cmd_report(a):
              "gets `--time` = budget - preprocessing. Efficiency = 1 / (relMSE x time); the ratio is taken "
              "against nee+bsdf at the same budget (> 1: the mode wins at equal time). `auto` is the default "
              "pipeline: a pilot inside the budget chooses between unguided sampling, guiding the first vertex "
-             "(what `nee+bsdf+cache` renders) and guiding every vertex with Russian roulette from twice the "
-             "scene's depth."
+             "(what `nee+bsdf+cache` renders) and guiding every vertex with Russian roulette only below "
+             "throughput 0.1 (0.3 elsewhere)."
              % (a.tier, results[0]["date"] if results else "-", results[0]["threads"] if results else "-"), ""]
     summary = []
     for r in results:

@@ -255,6 +255,8 @@ const BadInputCase kCases[] = {
     {"RenderBsdfFraction", "render", "--bsdf-fraction 1.5", "{in}/valid.xml --atlas {in}/atlas.h5 --bsdf-fraction 1.5 -o {out}", "--bsdf-fraction"},
     {"RenderBsdfFractionWord", "render", "--bsdf-fraction neither auto nor a number", "{in}/valid.xml --atlas {in}/atlas.h5 --bsdf-fraction half -o {out}", "--bsdf-fraction"},
     {"RenderMinGainBelowOne", "render", "--min-gain 0.5", "{in}/valid.xml --atlas {in}/atlas.h5 --min-gain 0.5 -o {out}", "--min-gain"},
+    {"RenderRrThresholdZero", "render", "--rr-threshold 0", "{in}/valid.xml --rr-threshold 0 -o {out}", "--rr-threshold"},
+    {"RenderRrThresholdAboveOne", "render", "--rr-threshold 2", "{in}/valid.xml --rr-threshold 2 -o {out}", "--rr-threshold"},
     {"RenderRrDepthZero", "render", "--rr-depth 0", "{in}/valid.xml --rr-depth 0 -o {out}", "--rr-depth"},
     {"RenderNegativeGuideVertices", "render", "--guide-vertices -1", "{in}/valid.xml --atlas {in}/atlas.h5 --guide-vertices -1 -o {out}", "--guide-vertices"},
     {"RenderAutoWithoutAtlas", "render", "--mode auto without --atlas", "{in}/valid.xml --mode auto -o {out}", "--atlas"},

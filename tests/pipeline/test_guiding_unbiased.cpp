@@ -16,7 +16,7 @@
 // (above the threshold of ~4.9 in three), the NEE modes' at most 3.8. At 4096 spp bsdf+cache's largest
 // |z| in six runs was 4.3. So bsdf+cache renders 4096 spp, the others 1024 (about 20 s in all on two
 // cores). nee+bsdf+cache runs twice: as the fixed mode renders it (the first vertex guided) and as the
-// deep setting --mode auto may choose (every vertex guided, Russian roulette from depth 10). The per-pixel test cannot see a 5 % bias in bsdf+cache (its pixels are too noisy: |z| <= 3.9
+// deep setting --mode auto may choose (every vertex guided, Russian roulette below throughput 0.1). The per-pixel test cannot see a 5 % bias in bsdf+cache (its pixels are too noisy: |z| <= 3.9
 // for the scaled image); the block and image tests can. And the test proves its power: every mode's
 // guided image scaled by 1.05 must be rejected (measured in six runs: per-pixel |z| 6.5-8.8 for the NEE
 // modes, image-mean |z| 13-18 for all three modes).
@@ -45,11 +45,11 @@ struct Mode {
     bool direct_atlas;  // bsdf+cache has no NEE: its caches include the direct light (fill-caches --direct)
     const char* extra = "";
 };
-// The last: the deep setting --mode auto may choose (every vertex guided, roulette from a later depth).
+// The last: the deep setting --mode auto may choose (every vertex guided, less roulette).
 const Mode kModes[] = {{"nee+cache", 1024, false},
                        {"bsdf+cache", 4096, true},
                        {"nee+bsdf+cache", 1024, false},
-                       {"nee+bsdf+cache", 1024, false, "--guide-vertices 0 --rr-depth 10"}};
+                       {"nee+bsdf+cache", 1024, false, "--guide-vertices 0 --rr-threshold 0.1"}};
 constexpr int kModeCount = 4;
 
 // Two-sided normal critical value for tail probability p: z with erfc(z / sqrt 2) = p (bisection).
@@ -227,9 +227,9 @@ TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) {
 }
 
 // --mode auto weighs unguided sampling against guiding the first vertex and, unless the user fixed
-// --guide-vertices or --rr-depth, guiding every vertex with Russian roulette from twice the scene's
-// depth (the caustic box's rrDepth is the default, 5); the image records every candidate the pilot
-// measured and the setting it rendered with, and renders what it chose.
+// --guide-vertices, --rr-depth or --rr-threshold, guiding every vertex with Russian roulette only below
+// throughput 0.1 (the default threshold is 0.3; the caustic box's rrDepth is the default, 5); the image
+// records every candidate the pilot measured and the setting it rendered with, and renders what it chose.
 TEST(GuidingAuto, WeighsEveryVertexOnlyWhereTheUserLeftTheChoice) {
     TempDir dir;
     const std::string scene = data_file("guiding/caustic_box.xml");
@@ -247,8 +247,8 @@ TEST(GuidingAuto, WeighsEveryVertexOnlyWhereTheUserLeftTheChoice) {
     auto m = metadata("default", "");
     const std::string pilot = m["iris:auto_guide"];
     EXPECT_TRUE(has(pilot, "unguided ")) << pilot;
-    EXPECT_TRUE(has(pilot, "first vertex, roulette from depth 5 ")) << pilot;
-    EXPECT_TRUE(has(pilot, "every vertex, roulette from depth 10 ")) << pilot;
+    EXPECT_TRUE(has(pilot, "first vertex, roulette below 0.3 from depth 5 ")) << pilot;
+    EXPECT_TRUE(has(pilot, "every vertex, roulette below 0.1 from depth 5 ")) << pilot;
     // The setting rendered is the one the pilot names first (or none: unguided).
     if (m["iris:mode"] == "nee+bsdf") {
         EXPECT_TRUE(has(pilot, "unguided:")) << pilot;
@@ -258,11 +258,15 @@ TEST(GuidingAuto, WeighsEveryVertexOnlyWhereTheUserLeftTheChoice) {
     }
 
     m = metadata("two", "--guide-vertices 2");
-    EXPECT_TRUE(has(m["iris:auto_guide"], "first 2 vertices, roulette from depth 5 ")) << m["iris:auto_guide"];
+    EXPECT_TRUE(has(m["iris:auto_guide"], "first 2 vertices, roulette below 0.3 from depth 5 ")) << m["iris:auto_guide"];
     EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
 
     m = metadata("rr", "--rr-depth 7");
-    EXPECT_TRUE(has(m["iris:auto_guide"], "first vertex, roulette from depth 7 ")) << m["iris:auto_guide"];
+    EXPECT_TRUE(has(m["iris:auto_guide"], "first vertex, roulette below 0.3 from depth 7 ")) << m["iris:auto_guide"];
+    EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
+
+    m = metadata("threshold", "--rr-threshold 1");
+    EXPECT_TRUE(has(m["iris:auto_guide"], "first vertex, roulette below 1 from depth 5 ")) << m["iris:auto_guide"];
     EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
 }
 

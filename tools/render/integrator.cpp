@@ -212,11 +212,11 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         prev_p = ref;
         ray = spawn_ray(hit, wo_world);
 
-        // Russian roulette from rr_depth on, with Mitsuba's survival probability.
+        // Russian roulette from rr_depth on (PathSettings::rr_threshold).
         if (depth >= ps.rr_depth) {
             // beta carries the 1/eta^2 radiance scaling of refractions; undo it for the decision only,
             // so paths inside glass are not killed for a change of units.
-            float q = std::min(max_component(beta) * eta_scale, 0.95f);
+            float q = std::min(max_component(beta) * eta_scale / ps.rr_threshold, 0.95f);
             if (!(rng.next_float() < q)) break;
             beta /= q;
         }
@@ -266,7 +266,7 @@ std::vector<PathSettings> guided_candidates(const PathSettings& guided, bool exp
     if (expand) {
         PathSettings deep = guided;
         deep.guide_vertices = 1 << 30;
-        deep.rr_depth = guided.rr_depth >= (1 << 29) ? guided.rr_depth : 2 * guided.rr_depth;
+        deep.rr_threshold = std::min(guided.rr_threshold, kDeepRouletteThreshold);
         c.push_back(deep);
     }
     return c;
@@ -276,7 +276,11 @@ std::string describe(const PathSettings& s) {
     std::string v = s.guide_vertices >= (1 << 29) ? "every vertex"
                     : s.guide_vertices == 1       ? "first vertex"
                                                   : "first " + std::to_string(s.guide_vertices) + " vertices";
-    if (s.rr_depth < (1 << 29)) v += ", roulette from depth " + std::to_string(s.rr_depth);
+    if (s.rr_depth < (1 << 29)) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, ", roulette below %g from depth %d", s.rr_threshold, s.rr_depth);
+        v += buf;
+    }
     return v;
 }
 
@@ -392,6 +396,9 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     ps.max_depth = opt.max_depth >= -1 ? opt.max_depth : scene.defaults.max_depth;
     ps.rr_depth = opt.rr_depth >= -1 ? opt.rr_depth : scene.defaults.rr_depth;
     if (ps.rr_depth < 0) ps.rr_depth = 1 << 30;
+    if (opt.rr_threshold != -1 && !(opt.rr_threshold > 0 && opt.rr_threshold <= 1))
+        throw std::runtime_error("--rr-threshold must be in (0, 1]");
+    ps.rr_threshold = opt.rr_threshold == -1 ? kRouletteThreshold : opt.rr_threshold;
     const bool timed = opt.time > 0;
     const int target_spp = opt.spp > 0 ? opt.spp : (timed ? (1 << 30) : scene.defaults.spp);
 
@@ -411,7 +418,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     GuideDecision decision;
     if (opt.auto_guide && ps.guide) {
         // A pilot of ~3 % of a time budget (or the minimum for a fixed spp).
-        const bool expand = opt.guide_vertices < 0 && opt.rr_depth < -1;
+        const bool expand = opt.guide_vertices < 0 && opt.rr_depth < -1 && opt.rr_threshold == -1;
         decision = decide_guiding(scene, camera, width, height, opt.seed, guided_candidates(ps, expand),
                                   timed ? 0.03 * opt.time : 0.0);
         if (!opt.quiet) std::fprintf(stderr, "render: %s\n", describe(decision).c_str());

@@ -22,6 +22,7 @@ struct RenderOptions {
     uint64_t seed = 0;
     int max_depth = -2;      // -2 = the scene's <integrator> maxDepth; -1 = unlimited (Mitsuba meaning)
     int rr_depth = -2;       // -2 = the scene's rrDepth
+    float rr_threshold = -1; // throughput below which roulette plays (PathSettings); -1 = kRouletteThreshold
     bool variance_layer = false;  // add "variance.R/G/B": variance of each pixel's estimate
     bool samples_layer = false;   // add "samples": samples taken per pixel
     bool quiet = false;
@@ -46,6 +47,10 @@ struct RenderOptions {
 struct PathSettings {
     int max_depth = -1;
     int rr_depth = 5;
+    // From rr_depth on, a path whose throughput t (largest component, refraction scaling undone) is
+    // below rr_threshold survives with probability min(t / rr_threshold, 0.95) and is divided by it;
+    // 1 is Mitsuba's rule (survival = t).
+    float rr_threshold = 1.0f;
     const Guide* guide = nullptr;
     GuideMode mode = GuideMode::NeeBsdf;
     // Guide only the first this many non-specular vertices of a path (each guided vertex costs a
@@ -82,6 +87,17 @@ struct RenderStats {
     int threads = 0;
 };
 
+// The default roulette threshold. Mitsuba's rule (1) lets a path with throughput 0.1 live with
+// probability 0.1 and multiplies it by 10: where a rare deep path finds a bright light through glass
+// or a mirror, that multiplies the rare contribution too. Measured at equal spp on the seed scenes
+// (relMSE against the 2048-spp references, reference noise removed, x sampling time, two seeds):
+// 0.3 is 6-16 % more efficient than 1 on the plain box, the mirror boxes and the glass spheres, equal on
+// the plates, 0.1 slightly below 0.3 for unguided rendering (docs/BENCHMARKS.md).
+inline constexpr float kRouletteThreshold = 0.3f;
+// The deep guided candidate's threshold: with every vertex guided, deep paths find the caustics often,
+// and keeping them pays (spheres: 1.89 vs 1.44 efficiency at 0.3, mirror boxes 19.9 vs 15.0).
+inline constexpr float kDeepRouletteThreshold = 0.1f;
+
 // Counters kept per worker and summed at the end.
 struct PathCounters {
     uint64_t rays = 0;
@@ -92,14 +108,15 @@ struct PathCounters {
 inline constexpr double kGuideMargin = 1.1;
 
 // The guided settings the automatic mode weighs against unguided sampling, from the resolved settings
-// `guided`: those themselves, and where `expand` (the user fixed neither --guide-vertices nor
-// --rr-depth) also every non-specular vertex guided with Russian roulette from twice the depth. In
-// closed scenes with caustics (the glass spheres, the mirror boxes) most of the unguided variance
-// comes from deep paths that find a light through glass or a mirror: guided at every vertex and not
-// cut short by roulette they become frequent instead of rare, and that setting wins there at equal
-// time although each guided vertex costs a lookup; elsewhere the first vertex alone is cheaper.
+// `guided`: those themselves, and where `expand` (the user fixed none of --guide-vertices, --rr-depth,
+// --rr-threshold) also every non-specular vertex guided with the roulette threshold
+// kDeepRouletteThreshold. In closed scenes with caustics (the glass spheres, the mirror boxes) most of
+// the unguided variance comes from deep paths that find a light through glass or a mirror: guided at
+// every vertex and not cut short by roulette they become frequent instead of rare, and that setting
+// wins there at equal time although each guided vertex costs a lookup; elsewhere the first vertex
+// alone is cheaper.
 std::vector<PathSettings> guided_candidates(const PathSettings& guided, bool expand);
-// One line naming a candidate's settings, e.g. "every vertex, roulette from depth 10".
+// One line naming a candidate's settings, e.g. "every vertex, roulette below 0.1 from depth 5".
 std::string describe(const PathSettings& s);
 
 // Runs the pilot (about budget_seconds, at least a minimum number of samples) for unguided sampling

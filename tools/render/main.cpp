@@ -31,6 +31,8 @@ int main(int argc, char** argv) {
     app.add_option("--seed", opt.seed, "Random seed (same seed => same image, for any thread count)");
     app.add_option("--max-depth", opt.max_depth, "Longest path in edges, -1 = unlimited (default: the scene's)");
     app.add_option("--rr-depth", opt.rr_depth, "Depth at which Russian roulette starts, -1 = none (default: the scene's)");
+    app.add_option("--rr-threshold", opt.rr_threshold,
+                   "Throughput below which Russian roulette plays, in (0, 1]; 1 = Mitsuba's rule (default 0.3)");
     app.add_flag("--variance", opt.variance_layer, "Add layers variance.R/G/B (variance of each pixel's estimate)");
     app.add_flag("--sample-count", opt.samples_layer, "Add a layer 'samples' with the samples per pixel");
     app.add_option("-D,--define", defines, "Scene parameter name=value (for $name in the scene file)");
@@ -39,8 +41,8 @@ int main(int argc, char** argv) {
                    "How sampling techniques combine: nee+bsdf | nee+cache | bsdf+cache | nee+bsdf+cache "
                    "(default with --atlas; without an atlas: nee+bsdf, or bsdf+cache = BSDF sampling only) | auto "
                    "(with --atlas: a short pilot measures nee+bsdf and nee+bsdf+cache -- guiding the first vertex, "
-                   "and unless --guide-vertices or --rr-depth is given also every vertex with Russian roulette "
-                   "from twice the depth -- and renders with the one predicted to win at equal time; the pilot "
+                   "and unless --guide-vertices, --rr-depth or --rr-threshold is given also every vertex with "
+                   "Russian roulette below throughput 0.1 -- and renders with the one predicted to win at equal time; the pilot "
                    "counts in --time)");
     app.add_option("--bsdf-fraction", bsdf_fraction,
                    "Probability of BSDF sampling where a cache guides: auto (default: chosen per cache from its "
@@ -48,7 +50,7 @@ int main(int argc, char** argv) {
     int guide_vertices = -1;
     app.add_option("--guide-vertices", guide_vertices,
                    "Guide only the first N non-specular vertices of each path (0 = all; default 1, and with --mode "
-                   "auto the pilot also weighs every vertex with later Russian roulette)");
+                   "auto the pilot also weighs every vertex with less Russian roulette)");
     app.add_option("--min-gain", guide_options.min_gain,
                    "With --bsdf-fraction auto: least predicted variance reduction for a cache to be used (>= 1)");
     app.add_option("--snapshot", opt.snapshot_interval,
@@ -75,6 +77,8 @@ int main(int argc, char** argv) {
             throw std::runtime_error("--min-gain must be >= 1");
         if (app.count("--rr-depth") && opt.rr_depth < 1 && opt.rr_depth != -1)
             throw std::runtime_error("--rr-depth must be >= 1, or -1 for no Russian roulette");
+        if (app.count("--rr-threshold") && !(opt.rr_threshold > 0 && opt.rr_threshold <= 1))
+            throw std::runtime_error("--rr-threshold must be in (0, 1]");
         if (app.count("--guide-vertices")) {
             if (guide_vertices < 0) throw std::runtime_error("--guide-vertices must be >= 0 (0 = every vertex)");
             opt.guide_vertices = guide_vertices;
