@@ -5,6 +5,17 @@
 
 namespace iris {
 
+double caustic_power_share(const PhotonMap& m) {
+    if (m.caustic.size() != m.size()) return -1;
+    double all = 0, caustic = 0;
+    for (size_t i = 0; i < m.size(); ++i) {
+        const double p = luminance(m.power[i]);
+        all += p;
+        if (m.caustic[i]) caustic += p;
+    }
+    return all > 0 ? caustic / all : 0.0;
+}
+
 std::string validate_photon_map(const PhotonMap& m) {
     const size_t n = m.size();
     for (auto [name, rows] : {std::pair{"direction", m.direction.size()}, std::pair{"power", m.power.size()},

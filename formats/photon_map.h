@@ -46,6 +46,11 @@ struct PhotonMapFile {
 // "" if `map` satisfies the contract, else what is wrong (naming the dataset and row).
 std::string validate_photon_map(const PhotonMap& map);
 
+// Share of the stored photon power (luminance) whose path passed a specular bounce (the caustic flag):
+// light a path tracer finds only when BSDF sampling follows the specular chain. 0 for an empty map;
+// -1 when the map has no caustic flags.
+double caustic_power_share(const PhotonMap& map);
+
 // Writes atomically (see hdf5_util.h). Throws StageFileError, leaving no file, if the map is invalid.
 void write_photon_map(const std::string& path, const PhotonMap& map, const std::string& scene_fingerprint,
                       const Provenance& provenance);

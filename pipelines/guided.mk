@@ -29,6 +29,10 @@ PHOTON_DEPTH ?= 30
 # place-caches
 COUNT ?= 4000
 STRIDE ?= 8
+# No caches at all (an unguided render) when less than this share of the photon power arrives through
+# specular chains: on the seed scenes without any (the plain box, the plates) guiding did not pay for
+# its preprocessing. 0 = always guide.
+MIN_CAUSTIC ?= 0.005
 # fill-caches
 K ?= 1000
 RES ?= 16
@@ -51,7 +55,7 @@ BUDGET := $(if $(filter 0,$(SPP)),--time $(TIME),--spp $(SPP))
 
 CMD_photons = $(BIN)/trace-photons $(SCENE) -o $(OUT)/photons.h5 --paths $(PATHS) --max-depth $(PHOTON_DEPTH) $(COMMON)
 CMD_caches = $(BIN)/place-caches $(SCENE) --photons $(OUT)/photons.h5 -o $(OUT)/caches.h5 --count $(COUNT) \
-  --camera-stride $(STRIDE) $(COMMON)
+  --camera-stride $(STRIDE) --min-caustic-share $(MIN_CAUSTIC) $(COMMON)
 CMD_atlas = $(BIN)/fill-caches $(OUT)/caches.h5 --photons $(OUT)/photons.h5 -o $(OUT)/atlas.h5 --k $(K) \
   --resolution $(RES) --filter-sigma $(SIGMA) --floor $(FLOOR) --max-radius $(MAX_RADIUS) \
   $(if $(filter bsdf+cache,$(MODE)),--direct) $(COMMON)

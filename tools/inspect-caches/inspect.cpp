@@ -86,16 +86,9 @@ std::string describe_photon_map(const PhotonMap& m) {
                  fmt("%.1f %%", 100.0 * double(hist[b]) / double(std::max<size_t>(1, m.size())));
         s += line("bounces before the hit", h);
     }
-    if (!m.caustic.empty()) {
-        // Light the path tracer can only find through specular chains (NEE cannot connect through them).
-        double all = 0, caustic = 0;
-        for (size_t i = 0; i < m.size(); ++i) {
-            const double p = luminance(m.power[i]);
-            all += p;
-            if (m.caustic[i]) caustic += p;
-        }
-        s += line("caustic (via specular)", fmt("%.1f %% of the stored power", all > 0 ? 100.0 * caustic / all : 0.0));
-    }
+    // Light the path tracer can only find through specular chains (NEE cannot connect through them).
+    if (const double share = caustic_power_share(m); share >= 0)
+        s += line("caustic (via specular)", fmt("%.1f %% of the stored power", 100.0 * share));
     return s;
 }
 

@@ -26,6 +26,10 @@ int main(int argc, char** argv) {
     app.add_option("-t,--threads", opt.threads, "Worker threads (default: all cores)");
     app.add_option("--seed", opt.seed, "Random seed");
     app.add_option("-D,--define", defines, "Scene parameter name=value");
+    double min_caustic_share = 0;
+    app.add_option("--min-caustic-share", min_caustic_share,
+                   "Place no caches (the render then stays unguided) when less than this fraction of the photon "
+                   "power arrives through specular chains (default 0: always place them)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     if (int rc = iris::parse_command_line(app, argc, argv, "place-caches"); rc >= 0) return rc;
     try {
@@ -33,13 +37,20 @@ int main(int argc, char** argv) {
         if (opt.count == 0) throw std::runtime_error("--count must be positive");
         if (opt.camera_stride < 0) throw std::runtime_error("--camera-stride must be >= 0");
         if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
+        if (!(min_caustic_share >= 0 && min_caustic_share <= 1))
+            throw std::runtime_error("--min-caustic-share must be in [0, 1]");
         iris::check_output_path(output);
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
         iris::Scene scene = iris::load_scene(scene_path, lo);
         iris::PhotonMapFile pf = iris::read_photon_map(photons_path, scene.fingerprint);
         iris::PlacementStats stats;
-        iris::CachePoints caches = iris::place_caches(scene, pf.photons, opt, &stats);
+        // Skipping what the scene does not need: without light through specular chains, every path the
+        // light takes can be connected by next-event estimation at each diffuse or glossy vertex, and
+        // on the seed scenes guiding then did not pay for its preprocessing (docs/BENCHMARKS.md).
+        const double caustic_share = iris::caustic_power_share(pf.photons);
+        const bool skip = caustic_share >= 0 && caustic_share < min_caustic_share;
+        iris::CachePoints caches = skip ? iris::CachePoints{} : iris::place_caches(scene, pf.photons, opt, &stats);
         iris::Provenance prov;
         prov.tool = "place-caches";
         prov.tool_version = IRIS_VERSION;
@@ -48,9 +59,15 @@ int main(int argc, char** argv) {
         prov.seed = opt.seed;
         prov.parameters = {{"count", double(opt.count)},          {"camera_stride", double(opt.camera_stride)},
                            {"camera_caches", double(stats.camera)}, {"photon_caches", double(stats.photon)},
-                           {"cell_size", stats.cell_size},          {"seconds", stats.seconds}};
+                           {"cell_size", stats.cell_size},          {"seconds", stats.seconds},
+                           {"min_caustic_share", min_caustic_share}, {"caustic_share", caustic_share}};
         iris::write_cache_points(output, caches, scene.fingerprint, prov);
-        if (!opt.quiet)
+        if (skip)  // said even with -q: it decides what the render does
+            std::fprintf(stderr,
+                         "place-caches: no caches: %.2f %% of the photon power arrives through specular chains "
+                         "(--min-caustic-share %.2f %%), so the render stays unguided; wrote %s\n",
+                         100 * caustic_share, 100 * min_caustic_share, output.c_str());
+        else if (!opt.quiet)
             std::fprintf(stderr, "place-caches: wrote %s (%u camera + %u photon caches, %.2f s)\n", output.c_str(),
                          stats.camera, stats.photon, stats.seconds);
     } catch (const std::exception& e) {

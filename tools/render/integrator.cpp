@@ -496,7 +496,8 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         img.metadata["iris:version"] = IRIS_VERSION;
         img.metadata["iris:tool"] = "render";
         img.metadata["iris:mode"] = guide_mode_name(ps.mode);
-        if (opt.auto_guide && opt.guide) img.metadata["iris:auto_guide"] = describe(decision);
+        if (opt.auto_guide)  // (without a guide: the atlas had no cache that guides; no pilot ran)
+            img.metadata["iris:auto_guide"] = opt.guide ? describe(decision) : "unguided: no cache in the atlas guides";
         if (ps.guide) img.metadata["iris:guiding"] = describe(ps);
         return img;
     };

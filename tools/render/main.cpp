@@ -95,7 +95,10 @@ int main(int argc, char** argv) {
             if (!opt.quiet)
                 std::fprintf(stderr, "render: guiding with %zu of %zu caches (%zu usable; mean BSDF share %.2f)%s\n",
                              g.guiding, g.caches, g.usable, g.mean_alpha,
-                             g.guiding ? "" : ": none is predicted to beat BSDF sampling, rendering unguided");
+                             g.guiding  ? ""
+                             : g.caches ? ": none is predicted to beat BSDF sampling, rendering unguided"
+                                        : ": the atlas has none (place-caches skipped a scene without light "
+                                          "through specular chains), rendering unguided");
             // A guide without caches would only cost lookups.
             if (!guide->empty()) opt.guide = guide.get();
         } else if (atlas_path.empty() && (opt.mode == iris::GuideMode::NeeCache)) {
