@@ -291,6 +291,7 @@ const BadInputCase kCases[] = {
     {"PlaceCachesZeroCount", "place-caches", "--count 0", "{in}/valid.xml --photons {in}/photons.h5 --count 0 -o {out}", "--count"},
     {"PlaceCachesNegativeCount", "place-caches", "--count -3", "{in}/valid.xml --photons {in}/photons.h5 --count -3 -o {out}", "--count"},
     {"PlaceCachesNegativeStride", "place-caches", "--camera-stride -1", "{in}/valid.xml --photons {in}/photons.h5 --camera-stride -1 -o {out}", "--camera-stride"},
+    {"PlaceCachesCausticShareAboveOne", "place-caches", "--min-caustic-share 2", "{in}/valid.xml --photons {in}/photons.h5 --min-caustic-share 2 -o {out}", "--min-caustic-share"},
     {"PlaceCachesZeroResolution", "place-caches", "--resolution 0x4", "{in}/valid.xml --photons {in}/photons.h5 --resolution 0x4 -o {out}", "--resolution"},
     {"PlaceCachesNegativeThreads", "place-caches", "--threads -1", "{in}/valid.xml --photons {in}/photons.h5 -t -1 -o {out}", "--threads"},
     {"PlaceCachesNoPhotons", "place-caches", "--photons left out", "{in}/valid.xml -o {out}", "--photons"},

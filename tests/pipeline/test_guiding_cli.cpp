@@ -9,6 +9,7 @@
 
 #include "formats/cache_atlas.h"
 #include "formats/cache_points.h"
+#include "formats/exr.h"
 #include "formats/photon_map.h"
 #include "support/run_tool.h"
 
@@ -109,6 +110,38 @@ TEST_F(GuidingCli, PlaceAndFillCachesAreDeterministicForAnyThreadCount) {
     EXPECT_EQ(a1.cdf, a2.cdf);
     EXPECT_EQ(a1.photon_count, a2.photon_count);
     EXPECT_EQ(a1.usable, a2.usable);
+}
+
+// Skipping what a scene does not need: with --min-caustic-share, place-caches places no cache where
+// less than that share of the photon power came through a specular chain, says so even with -q, and
+// the empty set flows through fill-caches to a render that stays unguided (no pilot) and records why.
+// The caustic box (glass sphere) keeps its caches at the pipeline's default share.
+TEST_F(GuidingCli, NoCachesWithoutLightThroughSpecularChains) {
+    TempDir d;
+    const std::string diffuse = data_file("render/sphere_light_over_plane.xml");
+    auto run = [](const std::string& cmd) {
+        ToolResult r = run_command(cmd);
+        EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
+        return r;
+    };
+    run(tool("trace-photons") + " " + diffuse + " -q --paths 3000 --seed 5 -o " + d.file("p.h5"));
+    ToolResult r = run(tool("place-caches") + " " + diffuse + " --photons " + d.file("p.h5") +
+                       " -q --count 50 --min-caustic-share 0.005 -o " + d.file("c.h5"));
+    EXPECT_NE(r.output.find("no caches: 0.00 % of the photon power arrives through specular chains"), std::string::npos)
+        << r.output;
+    EXPECT_EQ(read_cache_points(d.file("c.h5")).caches.size(), 0u);
+    run(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + d.file("p.h5") + " -q -o " + d.file("a.h5"));
+    EXPECT_EQ(read_cache_atlas(d.file("a.h5")).atlas.size(), 0u);
+    run(tool("render") + " " + diffuse + " -q --spp 4 --mode auto --atlas " + d.file("a.h5") + " -o " + d.file("g.exr"));
+    const Image img = read_exr(d.file("g.exr"));
+    EXPECT_EQ(img.metadata.at("iris:mode"), "nee+bsdf");
+    EXPECT_EQ(img.metadata.at("iris:auto_guide"), "unguided: no cache in the atlas guides");
+
+    // The same share on the caustic box: its glass sphere carries light, caches are placed.
+    r = run(tool("place-caches") + " " + scene() + " --photons " + in("photons.h5") +
+            " -q --count 50 --min-caustic-share 0.005 -o " + d.file("cc.h5"));
+    EXPECT_EQ(r.output, "");
+    EXPECT_GT(read_cache_points(d.file("cc.h5")).caches.size(), 0u);
 }
 
 }  // namespace

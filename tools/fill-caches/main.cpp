@@ -39,8 +39,13 @@ int main(int argc, char** argv) {
         if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
         iris::check_output_path(output);
         iris::CachePointsFile cf = iris::read_cache_points(caches_path);
-        // The photons must come from the same scene as the caches.
-        iris::PhotonMapFile pf = iris::read_photon_map(photons_path, cf.header.scene_fingerprint);
+        // The photons must come from the same scene as the caches. Without caches (place-caches skipped a
+        // scene that guiding would not help) only that is checked: the photons themselves are not needed.
+        iris::PhotonMapFile pf;
+        if (cf.caches.size() == 0)
+            pf.header = iris::read_photon_map_header(photons_path, cf.header.scene_fingerprint);
+        else
+            pf = iris::read_photon_map(photons_path, cf.header.scene_fingerprint);
         // The scene's extent, from the cache positions and photons (the scene file is not an input here).
         iris::Vec3 lo(iris::kInf), hi(-iris::kInf);
         for (iris::Vec3 p : pf.photons.position) {
