@@ -359,7 +359,9 @@ def cmd_report(a):
              "modes, the preprocessing (`trace-photons` + `place-caches` + `fill-caches`); each guided render "
              "gets `--time` = budget - preprocessing. Efficiency = 1 / (relMSE x time); the ratio is taken "
              "against nee+bsdf at the same budget (> 1: the mode wins at equal time). `auto` is the default "
-             "pipeline: a pilot inside the budget chooses between unguided sampling, guiding the first vertex "
+             "pipeline: no caches where (almost) no photon power arrives through specular chains (then an "
+             "unguided render after the photon pass), elsewhere a pilot inside the budget chooses between "
+             "unguided sampling, guiding the first vertex "
              "(what `nee+bsdf+cache` renders) and guiding every vertex with Russian roulette only below "
              "throughput 0.1 (0.3 elsewhere)."
              % (a.tier, results[0]["date"] if results else "-", results[0]["threads"] if results else "-"), ""]
