@@ -295,7 +295,6 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
     PathSettings unguided = guided.at(0);
     unguided.guide = nullptr;
     unguided.mode = GuideMode::NeeBsdf;
-    unguided.guide_vertices = 0;
     d.candidates.push_back({unguided});
     for (const PathSettings& g : guided) d.candidates.push_back({g});
     const size_t n_cand = d.candidates.size();
@@ -358,8 +357,8 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
 }
 
 std::string describe(const GuideDecision& d) {
-    // e.g. "guided (first vertex, roulette from depth 5): pilot predicts 1.35x the efficiency of
-    // unguided sampling (relative variance, us per sample: unguided 26, 0.87; first vertex, ... 15, 1.1; ...)"
+    // e.g. "guided (first vertex, roulette below 0.3 from depth 5): pilot predicts 1.35x the efficiency
+    // of unguided sampling (relative variance, us per sample: unguided 26, 0.87; first vertex, ... 15, 1.1; ...)"
     const size_t best = d.chosen > 0 ? size_t(d.chosen) : 1;
     std::string s = d.guide() ? "guided (" + describe(d.candidates[best].settings) + ")" : "unguided";
     char buf[160];
