@@ -125,6 +125,10 @@ TEST_F(GuidingCli, NoCachesWithoutLightThroughSpecularChains) {
         return r;
     };
     run(tool("trace-photons") + " " + diffuse + " -q --paths 3000 --seed 5 -o " + d.file("p.h5"));
+    // trace-photons records the share (place-caches then decides from the header alone): none here,
+    // some on the caustic box.
+    EXPECT_EQ(read_photon_map_header(d.file("p.h5")).provenance.parameters.at("caustic_share"), 0.0);
+    EXPECT_GT(read_photon_map_header(in("photons.h5")).provenance.parameters.at("caustic_share"), 0.0);
     ToolResult r = run(tool("place-caches") + " " + diffuse + " --photons " + d.file("p.h5") +
                        " -q --count 50 --min-caustic-share 0.005 -o " + d.file("c.h5"));
     EXPECT_NE(r.output.find("no caches: 0.00 % of the photon power arrives through specular chains"), std::string::npos)

@@ -43,13 +43,21 @@ int main(int argc, char** argv) {
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
         iris::Scene scene = iris::load_scene(scene_path, lo);
-        iris::PhotonMapFile pf = iris::read_photon_map(photons_path, scene.fingerprint);
         iris::PlacementStats stats;
         // Skipping what the scene does not need: without light through specular chains, every path the
         // light takes can be connected by next-event estimation at each diffuse or glossy vertex, and
         // on the seed scenes guiding then did not pay for its preprocessing (docs/BENCHMARKS.md).
-        const double caustic_share = iris::caustic_power_share(pf.photons);
-        const bool skip = caustic_share >= 0 && caustic_share < min_caustic_share;
+        // trace-photons records the share in the file's parameters; from older files it is computed.
+        iris::PhotonMapFile pf;
+        pf.header = iris::read_photon_map_header(photons_path, scene.fingerprint);
+        const auto recorded = pf.header.provenance.parameters.find("caustic_share");
+        double caustic_share = recorded != pf.header.provenance.parameters.end() ? recorded->second : -1;
+        bool skip = caustic_share >= 0 && caustic_share < min_caustic_share;
+        if (!skip) {
+            pf = iris::read_photon_map(photons_path, scene.fingerprint);
+            caustic_share = iris::caustic_power_share(pf.photons);
+            skip = caustic_share >= 0 && caustic_share < min_caustic_share;
+        }
         iris::CachePoints caches = skip ? iris::CachePoints{} : iris::place_caches(scene, pf.photons, opt, &stats);
         iris::Provenance prov;
         prov.tool = "place-caches";

@@ -48,7 +48,9 @@ int main(int argc, char** argv) {
         prov.seed = opt.seed;
         prov.parameters = {{"paths", double(opt.paths)},     {"max_depth", double(opt.max_depth)},
                            {"rr_depth", double(opt.rr_depth)}, {"cutoff", double(opt.cutoff)},
-                           {"seconds", stats.seconds},       {"nonfinite_discarded", double(stats.nonfinite)}};
+                           {"seconds", stats.seconds},       {"nonfinite_discarded", double(stats.nonfinite)},
+                           // So that place-caches can decide to skip a scene from the header alone.
+                           {"caustic_share", iris::caustic_power_share(map)}};
         iris::write_photon_map(output, map, scene.fingerprint, prov);
         if (!opt.quiet)
             std::fprintf(stderr, "trace-photons: wrote %s (%zu photons from %llu paths, %.2f per path, %.2f s%s)\n",
