@@ -164,7 +164,8 @@ def cmd_runs(a):
     # The fixed guided modes show what guiding does: where the pipeline placed no caches (a scene without
     # light through specular chains, MIN_CAUSTIC), they get their own preprocessing with caches forced.
     fixed = dict(atlas=atlas, prep=prep)
-    if any(m != "auto" for m in guided_modes) and atlas_caches(atlas) == 0:
+    auto_caches = atlas_caches(atlas) if guided_modes else None
+    if any(m != "auto" for m in guided_modes) and auto_caches == 0:
         forced = os.path.join(a.out, "forced")
         os.makedirs(forced, exist_ok=True)
         p, _ = preprocess(a.scene, forced, list(a.pipeline_vars) + ["MIN_CAUSTIC=0"])
@@ -199,7 +200,7 @@ def cmd_runs(a):
         stats = dict(line.split(None, 1) for line in out.splitlines() if line.startswith(("caches ", "map ")))
         caches = int(stats["caches"].split()[0])
         res = int(stats["map"].split()[1])
-        info["auto_caches"] = atlas_caches(atlas)
+        info["auto_caches"] = auto_caches
         pad = lambda n: (n + 15) // 16 * 16
         info["table_bytes"] = caches * (pad(res) + pad(res * res)) * 4
         info["caches"] = caches
