@@ -2,7 +2,8 @@
 # mode, and the report (docs/benchmarks/<tier>.md with SVG plots and image crops).
 #
 #   make -f pipelines/bench.mk quick        # half resolution, budgets 6/12/24 s, 3 modes (~15 min + references)
-#   make -f pipelines/bench.mk full         # full resolution, budgets 15..120 s, all modes (hours)
+#   make -f pipelines/bench.mk full         # full resolution, budgets 15..120 s, all modes (~2 h + references)
+#   make -f pipelines/bench.mk full MODES=nee+bsdf,auto   # the two modes the targets compare (~50 min)
 #   make -f pipelines/bench.mk references TIER=quick   # only the references
 #   make -f pipelines/bench.mk params PARAM_SCENE=cbox_kugeln   # parameter studies on one scene (~10 min)
 #
@@ -28,7 +29,7 @@ ifeq ($(TIER),full)
 SCALE ?= 1
 BUDGETS ?= 15,30,60,120
 MODES ?= nee+bsdf,auto,nee+bsdf+cache,nee+cache,bsdf+cache
-REF_SPP ?= 8192
+REF_SPP ?= 2048
 else
 SCALE ?= 0.5
 BUDGETS ?= 6,12,24
