@@ -63,8 +63,10 @@ params: $(REF_DIR)/$(PARAM_SCENE)-s$(SCALE)-$(REF_SPP)spp.exr
 	  --out out/bench/params/$(PARAM_SCENE) -o docs/benchmarks/params-$(PARAM_SCENE).md
 runs: $(RESULTS)
 
+# The settings given on make's command line, quoted in the report's command.
+GIVEN := $(foreach v,SCALE BUDGETS MODES REF_SPP PIPELINE,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
 report: $(RESULTS)
-	python3 scripts/bench.py report --tier $(TIER) --runs $(RUNS) -o docs/benchmarks/$(TIER).md --assets docs/benchmarks/$(TIER)
+	python3 scripts/bench.py report --tier $(TIER) --runs $(RUNS) -o docs/benchmarks/$(TIER).md --assets docs/benchmarks/$(TIER) $(GIVEN)
 
 define scene_rules
 $(REF_DIR)/$(call name_of,$(1))-s$(SCALE)-$(REF_SPP)spp.exr: $(call path_of,$(1))

@@ -353,8 +353,9 @@ def cmd_report(a):
                 results.append(json.load(f))
     os.makedirs(a.assets, exist_ok=True)
     rel_assets = os.path.relpath(a.assets, os.path.dirname(a.output))
+    command = " ".join(["make -f pipelines/bench.mk", a.tier] + a.make_vars)
     lines = ["## Run time against error (%s tier)" % a.tier, "",
-             "`make -f pipelines/bench.mk %s`, %s, %s threads. Every render of a scene is compared with an "
+             "`%s`, %s, %s threads. Every render of a scene is compared with an "
              "unguided reference of the same size (spp in each section; its own noise is part of every relMSE, "
              "so ratios are conservative). Time is the wall time of the whole `render` command plus, for guided "
              "modes, the preprocessing (`trace-photons` + `place-caches` + `fill-caches`); each guided render "
@@ -365,7 +366,7 @@ def cmd_report(a):
              "unguided sampling, guiding the first vertex "
              "(what `nee+bsdf+cache` renders) and guiding every vertex with Russian roulette only below "
              "throughput 0.1 (0.3 elsewhere)."
-             % (a.tier, results[0]["date"] if results else "-", results[0]["threads"] if results else "-"), ""]
+             % (command, results[0]["date"] if results else "-", results[0]["threads"] if results else "-"), ""]
     summary = []
     for r in results:
         name = r["name"]
@@ -389,11 +390,15 @@ def cmd_report(a):
                             r["caches"], r["map_resolution"], r["map_resolution"], r["atlas_bytes"] / 1e6,
                             r["table_bytes"] / 1e6, " ".join(r["pipeline_vars"]) or "pipelines/guided.mk defaults"))
             if r.get("auto_caches") == 0:
-                fixed_prep = next((x["prep"] for x in rows if x["mode"] not in ("auto", "nee+bsdf")), 0.0)
+                fixed_prep = next((x["prep"] for x in rows if x["mode"] not in ("auto", "nee+bsdf")), None)
                 lines[-1] += (" The default pipeline placed no caches here (less than MIN_CAUSTIC of the photon "
                               "power arrives through specular chains): `auto`'s preprocessing is the photon pass "
-                              "alone (%.2f s) and it rendered unguided; the caches above are those of a forced "
-                              "preprocessing (MIN_CAUSTIC=0, %.2f s) for the fixed guided modes." % (r["prep"], fixed_prep))
+                              "alone (%.2f s) and it rendered unguided" % r["prep"])
+                if fixed_prep is None:
+                    lines[-1] += "."
+                else:
+                    lines[-1] += ("; the caches above are those of a forced preprocessing (MIN_CAUSTIC=0, "
+                                  "%.2f s) for the fixed guided modes." % fixed_prep)
             lines.append("")
         head = "| budget (s) | " + " | ".join("%s relMSE (spp) | eff. ratio" % m if m != "nee+bsdf" else
                                               "%s relMSE (spp)" % m for m in modes) + " |"
@@ -512,6 +517,7 @@ def main():
     t.add_argument("--runs", required=True)
     t.add_argument("-o", "--output", required=True)
     t.add_argument("--assets", required=True)
+    t.add_argument("make_vars", nargs="*", help="the make settings the tier was run with, for the report's command line")
     t.set_defaults(func=cmd_report)
     q = sub.add_parser("params")
     q.add_argument("--scene", required=True)

@@ -1,0 +1,63 @@
+#!/usr/bin/env bash
+# Where the per-sample cost of guided rendering comes from (issue 4): per guided seed scene, the seconds
+# per sample of four settings at equal spp, median of 3 interleaved runs, side by side in one run:
+#   unguided            nee+bsdf with the default Russian roulette (the benchmark's baseline)
+#   unguided, rr 0.1    the same with the deep setting's roulette (survival below throughput 0.1 only)
+#   first vertex        nee+bsdf+cache guiding the first non-specular vertex (default roulette)
+#   every vertex        nee+bsdf+cache guiding every vertex with roulette below 0.1 (auto's deep setting)
+# so that the deep setting's cost splits into its longer paths (rr 0.1 / unguided) and the guiding
+# itself (every vertex / rr 0.1). Caches: pipelines/guided.mk defaults, forced (MIN_CAUSTIC=0).
+# Usage: scripts/bench-cost.sh [SPP] [SCALE]   (defaults 16 and 0.5; needs a Release build in build/)
+# Writes docs/benchmarks/cost.md.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+spp=${1:-16}
+scale=${2:-0.5}
+seeds=${IRIS_SHARED_DIR:-../shared}/seed-scenes
+bin=build/bin
+out=${IRIS_OUT:-out/bench}/cost
+report=docs/benchmarks/cost.md
+mkdir -p "$out" docs/benchmarks
+scenes=(cbox_kugeln.xml cbox_spiegelboxen.xml veach_bidir/bidir.xml metal_ring/ring.xml)
+median() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
+# Wall seconds of the render itself, as render reports it in the image's metadata.
+seconds() { "$bin/compare-images" "$1" --metadata | awk '/^iris:seconds /{print $2}'; }
+{
+  echo "## Per-sample cost of guided rendering, decomposed"
+  echo
+  echo "\`scripts/bench-cost.sh $spp $scale\`, $(date -u +%Y-%m-%d), $(nproc) threads, $spp spp at scale $scale, median"
+  echo "of 3 interleaved runs (render's own seconds). Ratios are to the unguided path tracer with the default roulette"
+  echo "unless named: *paths* = unguided with roulette below 0.1 / unguided (the deep setting's longer paths),"
+  echo "*guiding* = every vertex / unguided with roulette below 0.1 (lookups and cache sampling at every vertex)."
+  echo
+  echo "| scene | unguided (s) | unguided, rr 0.1 (s) | first vertex (s) | every vertex (s) | first vertex | every vertex | paths | guiding |"
+  echo "|---|---|---|---|---|---|---|---|---|"
+} > "$report"
+for s in "${scenes[@]}"; do
+  name=$(basename "${s%.xml}")
+  scene=$seeds/$s
+  res=$(python3 -c "import sys; sys.path.insert(0, 'scripts'); import bench; print('%dx%d' % bench.scaled_resolution(sys.argv[1], float(sys.argv[2])))" "$scene" "$scale")
+  make -s -f pipelines/guided.mk SCENE="$scene" OUT="$out/$name" BIN="$bin" MIN_CAUSTIC=0 atlas
+  atlas=$out/$name/atlas.h5
+  declare -A t=()
+  settings=(unguided rr01 first every)
+  for rep in 1 2 3; do
+    for k in "${settings[@]}"; do
+      case $k in
+        unguided) args=(--mode nee+bsdf) ;;
+        rr01) args=(--mode nee+bsdf --rr-threshold 0.1) ;;
+        first) args=(--mode nee+bsdf+cache --atlas "$atlas" --guide-vertices 1) ;;
+        every) args=(--mode nee+bsdf+cache --atlas "$atlas" --guide-vertices 0 --rr-threshold 0.1) ;;
+      esac
+      "$bin/render" "$scene" -o "$out/$name/$k.exr" --spp "$spp" --resolution "$res" --seed "$rep" -q "${args[@]}"
+      t[$k]+="$(seconds "$out/$name/$k.exr") "
+    done
+  done
+  for k in "${settings[@]}"; do t[$k]=$(echo ${t[$k]} | tr ' ' '\n' | median); done
+  ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a / b}'; }
+  row="| $name | ${t[unguided]} | ${t[rr01]} | ${t[first]} | ${t[every]} | $(ratio ${t[first]} ${t[unguided]}) | $(ratio ${t[every]} ${t[unguided]}) | $(ratio ${t[rr01]} ${t[unguided]}) | $(ratio ${t[every]} ${t[rr01]}) |"
+  echo "$row"
+  echo "$row" >> "$report"
+  unset t
+done
+echo "wrote $report"
