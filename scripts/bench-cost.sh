@@ -22,6 +22,7 @@ scenes=(cbox_kugeln.xml cbox_spiegelboxen.xml veach_bidir/bidir.xml metal_ring/r
 median() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
 # Wall seconds of the render itself, as render reports it in the image's metadata.
 seconds() { "$bin/compare-images" "$1" --metadata | awk '/^iris:seconds /{print $2}'; }
+ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a / b}'; }
 {
   echo "## Per-sample cost of guided rendering, decomposed"
   echo
@@ -54,7 +55,6 @@ for s in "${scenes[@]}"; do
     done
   done
   for k in "${settings[@]}"; do t[$k]=$(echo ${t[$k]} | tr ' ' '\n' | median); done
-  ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a / b}'; }
   row="| $name | ${t[unguided]} | ${t[rr01]} | ${t[first]} | ${t[every]} | $(ratio ${t[first]} ${t[unguided]}) | $(ratio ${t[every]} ${t[unguided]}) | $(ratio ${t[rr01]} ${t[unguided]}) | $(ratio ${t[every]} ${t[rr01]}) |"
   echo "$row"
   echo "$row" >> "$report"
