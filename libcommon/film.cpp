@@ -1,7 +1,10 @@
 #include "libcommon/film.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
+
+#include "libcommon/sampling.h"
 
 namespace iris {
 
@@ -11,6 +14,8 @@ constexpr int kFilterBins = 512;
 
 FilterSampler::FilterSampler(const FilmSettings& film) : film_(film) {
     if (film_.filter == FilterType::Box) return;
+    inv_two_var_ = 1.0f / (2 * film_.filter_stddev * film_.filter_stddev);
+    floor_ = std::exp(-film_.filter_radius * film_.filter_radius * inv_two_var_);
     // Tabulate the 1D Gaussian; the 2D filter is separable, so x and y are sampled independently.
     const float r = film_.filter_radius, dx = 2 * r / kFilterBins;
     cdf_.assign(kFilterBins + 1, 0.0f);
@@ -34,9 +39,7 @@ FilterSampler::FilterSampler(const FilmSettings& film) : film_(film) {
 
 float FilterSampler::eval1d(float x) const {
     // Mitsuba's truncated Gaussian: exp(-x^2/2s^2) - exp(-r^2/2s^2), clamped at zero.
-    float s2 = 2 * film_.filter_stddev * film_.filter_stddev;
-    float r = film_.filter_radius;
-    return std::max(0.0f, std::exp(-x * x / s2) - std::exp(-r * r / s2));
+    return std::max(0.0f, std::exp(-x * x * inv_two_var_) - floor_);
 }
 
 Vec2 FilterSampler::sample(Vec2 u, float* weight) const {
@@ -49,7 +52,7 @@ Vec2 FilterSampler::sample(Vec2 u, float* weight) const {
     float out[2];
     float uu[2] = {u.x, u.y};
     for (int k = 0; k < 2; ++k) {
-        int i = int(std::upper_bound(cdf_.begin(), cdf_.end(), uu[k]) - cdf_.begin()) - 1;
+        int i = int(upper_bound_index(cdf_.data(), cdf_.size(), uu[k])) - 1;
         i = clamp(i, 0, kFilterBins - 1);
         float span = cdf_[i + 1] - cdf_[i];
         float t = span > 0 ? (uu[k] - cdf_[i]) / span : 0.5f;

@@ -22,6 +22,8 @@ public:
 private:
     float eval1d(float x) const;
     FilmSettings film_;
+    float inv_two_var_ = 0;  // 1 / (2 stddev^2), per pixel^2
+    float floor_ = 0;        // the Gaussian's value at the radius, subtracted so the filter ends at zero
     std::vector<float> cdf_;  // piecewise-constant tabulation of the 1D filter over [-radius, radius]
     std::vector<float> pdf_;  // per pixel (1D density)
 };

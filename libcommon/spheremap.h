@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "libcommon/math.h"
+#include "libcommon/sampling.h"
 
 namespace iris {
 
@@ -311,19 +312,10 @@ private:
 
 // First index k with cdf[k] > u (std::upper_bound), for a non-decreasing cdf with cdf[n-1] > u:
 // P(k) = cdf[k] - cdf[k-1] exactly for uniform u, and zero-width (zero-probability) texels are never
-// returned. Branch-free halving (the comparison compiles to a conditional move): std::upper_bound's
-// unpredictable branches cost ~90 ns per search over 256 texels, this ~10 ns.
+// returned. Branch-free (sampling.h): std::upper_bound's unpredictable branches cost ~90 ns per search
+// over 256 texels, this ~10 ns.
 inline int SphereDistribution::search_cdf(const float* cdf, int n, float u) {
-    // Invariant: the answer lies in [lo, lo + len). If cdf[lo + half - 1] <= u it is at or after
-    // lo + half; otherwise before lo + half, inside the kept range [lo, lo + len - half) as well
-    // (len - half >= half).
-    int lo = 0, len = n;
-    while (len > 1) {
-        const int half = len / 2;
-        lo = cdf[lo + half - 1] <= u ? lo + half : lo;
-        len -= half;
-    }
-    return lo;
+    return int(upper_bound_index(cdf, size_t(n), u));
 }
 
 inline Vec3 SphereDistribution::sample(const float* cdf, const float* pdf, int R, Vec2 u, float* pdf_out) {

@@ -3,6 +3,7 @@
 // determinant of the map, and a discrete distribution whose choices match its pmf.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <functional>
@@ -295,6 +296,34 @@ TEST(WarpPdf, EqualsInverseJacobian) {
             EXPECT_NEAR(std::abs(j) * uniform_cone_pdf(OneMinusCos{omc}), 1.0, 2e-3);
         }
     }
+}
+
+// ---- upper_bound_index -----------------------------------------------------------------------------
+
+// The branch-free search must answer exactly as std::upper_bound: every length up to 70 (odd, even,
+// powers of two), runs of equal values, and queries below, between, on and above the elements.
+TEST(UpperBoundIndex, AgreesWithStdUpperBound) {
+    Rng rng(11, 12);
+    for (size_t n = 0; n <= 70; ++n) {
+        for (int trial = 0; trial < 20; ++trial) {
+            std::vector<float> a(n);
+            float v = 0;
+            for (float& x : a) {
+                v += rng.next_float() < 0.3f ? 0.0f : rng.next_float();  // about a third repeat the previous
+                x = v;
+            }
+            std::vector<float> queries = {-1.0f, v + 1.0f, std::nanf("")};
+            for (float x : a) queries.insert(queries.end(), {x, std::nextafter(x, -1e30f), std::nextafter(x, 1e30f)});
+            for (int q = 0; q < 10; ++q) queries.push_back(rng.next_float() * (v + 1.0f));
+            for (float x : queries) {
+                const size_t want = std::isnan(x) ? 0 : size_t(std::upper_bound(a.begin(), a.end(), x) - a.begin());
+                ASSERT_EQ(upper_bound_index(a.data(), n, x), want) << "n " << n << ", x " << x;
+            }
+        }
+    }
+    const std::vector<double> d = {0.0, 0.25, 0.25, 1.0};
+    EXPECT_EQ(upper_bound_index(d.data(), d.size(), 0.25), 3u);
+    EXPECT_EQ(upper_bound_index(d.data(), d.size(), 1.0), 4u);
 }
 
 // ---- Distribution1D --------------------------------------------------------------------------------
