@@ -60,15 +60,11 @@ inline float one_minus_cos_theta(Vec3 w) {
 Vec2 sample_uniform_triangle(Vec2 u);
 Vec2 invert_uniform_triangle(Vec2 b);
 
-// Piecewise-constant discrete distribution over n items with non-negative weights.
-// sample() returns an index with probability weight[i]/sum and rescales u for reuse.
-// Weights must be finite and >= 0 (the constructor throws std::invalid_argument otherwise: a NaN
-// weight would silently bias every estimate that uses the table). Bins of weight 0 are never
-// returned. With no positive weight the distribution is empty(): sample() then returns 0 and callers
-// must check empty() first.
 // Index of the first element of the sorted a[0..n) greater than x, n if none: std::upper_bound without
 // its unpredictable branches (the comparison compiles to a conditional move). A search over a few
-// hundred entries costs tens of nanoseconds less, which matters once per camera sample or light choice.
+// hundred entries costs tens of nanoseconds less: the pixel filter searches twice per camera sample,
+// the sphere map once per cache sample. (Distribution1D keeps std::upper_bound: switching it showed
+// no measurable gain.)
 template <class T>
 inline size_t upper_bound_index(const T* a, size_t n, T x) {
     if (n == 0) return 0;
@@ -82,6 +78,12 @@ inline size_t upper_bound_index(const T* a, size_t n, T x) {
     return lo + (a[lo] <= x ? 1 : 0);
 }
 
+// Piecewise-constant discrete distribution over n items with non-negative weights.
+// sample() returns an index with probability weight[i]/sum and rescales u for reuse.
+// Weights must be finite and >= 0 (the constructor throws std::invalid_argument otherwise: a NaN
+// weight would silently bias every estimate that uses the table). Bins of weight 0 are never
+// returned. With no positive weight the distribution is empty(): sample() then returns 0 and callers
+// must check empty() first.
 class Distribution1D {
 public:
     Distribution1D() = default;
