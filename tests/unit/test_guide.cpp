@@ -2,12 +2,14 @@
 // (libcommon/bsdf_fraction.h):
 //   - the two-level cdf search gives bit for bit the sample of the plain search, and the density derived
 //     from the cdf is bit for bit the stored pdf (so the guide may drop the pdf table);
-//   - the hash-grid lookup (with its tree fallback) takes the nearest serving cache, guiding or not, and
-//     the one it returns serves (distance and normal), compared against brute force;
+//   - the lookup takes its grid cell's answer for the vertex's normal axis (the nearest cache serving the
+//     cell's centre) or, outside the grid, the nearest cache serving the vertex, guiding or not,
+//     compared against brute force;
 //   - the BSDF fraction: a cache whose distribution is the cosine gains nothing and is not used, a
 //     peaked one gets a small alpha and a large predicted gain.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "libcommon/bsdf_fraction.h"
@@ -80,7 +82,16 @@ CacheAtlas plane_atlas(size_t n, uint64_t seed) {
     return a;
 }
 
-TEST(GuideLookup, TakesTheNearestServingCacheAndGuidesOnlyWhereItGuides) {
+TEST(GuideLookup, NormalClassIsTheNearestAxis) {
+    EXPECT_EQ(Guide::normal_class({1, 0, 0}), 0);
+    EXPECT_EQ(Guide::normal_class({-0.9f, 0.3f, 0.3f}), 1);
+    EXPECT_EQ(Guide::normal_class({0.1f, 0.8f, -0.5f}), 2);
+    EXPECT_EQ(Guide::normal_class({0, -1, 0}), 3);
+    EXPECT_EQ(Guide::normal_class({0.5f, 0.5f, 0.7f}), 4);
+    EXPECT_EQ(Guide::normal_class({0, 0, -1}), 5);
+}
+
+TEST(GuideLookup, TakesTheCellsAnswerOrTheNearestServingCacheAndGuidesOnlyWhereItGuides) {
     const CacheAtlas atlas = plane_atlas(3000, 7);
     const Guide guide(atlas, 0.25f);  // constant fraction: every usable cache guides
     Rng rng(11, 4);
@@ -89,43 +100,51 @@ TEST(GuideLookup, TakesTheNearestServingCacheAndGuidesOnlyWhereItGuides) {
         const float r = atlas.radius[c] * slack;
         return length_sq(atlas.position[c] - p) <= r * r && dot(atlas.normal[c], n) >= normal_cos;
     };
-    int found = 0, none = 0, unusable_nearest = 0;
+    // Brute force: the nearest cache serving (p, n) among the `candidates` nearest p, usable or not.
+    auto nearest_serving = [&](Vec3 p, Vec3 n, size_t candidates) {
+        std::vector<std::pair<float, int>> by_distance;
+        for (size_t c = 0; c < atlas.size(); ++c) by_distance.push_back({length_sq(atlas.position[c] - p), int(c)});
+        std::partial_sort(by_distance.begin(), by_distance.begin() + candidates, by_distance.end());
+        for (size_t i = 0; i < candidates; ++i)
+            if (serves(size_t(by_distance[i].second), p, n)) return by_distance[i].second;
+        return -1;
+    };
+    const Vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    int found = 0, none = 0, unusable_chosen = 0, in_grid = 0, outside = 0;
     for (int q = 0; q < 20000; ++q) {
-        // Points on and near either plane, and some between them; normals up, down or tilted.
-        const float z = q % 3 == 0 ? 0.0f : q % 3 == 1 ? 1.0f : rng.next_float();
-        const Vec3 p{rng.next_float() * 11 - 0.5f, rng.next_float() * 11 - 0.5f, z + 0.02f * (rng.next_float() - 0.5f)};
+        // Points on and near either plane, some between them and some far from both (outside the grid);
+        // normals up, down or tilted.
+        const float z = q % 4 == 0 ? 0.0f : q % 4 == 1 ? 1.0f : q % 4 == 2 ? rng.next_float() : 6 * rng.next_float() - 2.5f;
+        const Vec3 p{rng.next_float() * 14 - 2, rng.next_float() * 14 - 2, z + 0.02f * (rng.next_float() - 0.5f)};
         const Vec3 n = normalize(Vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, q % 2 ? 1.0f : -1.0f));
-        // Brute force: the nearest cache (usable or not) that serves p.
-        int nearest = -1;
-        float nearest_d2 = kInf;
-        bool usable_serves = false;
-        for (size_t c = 0; c < atlas.size(); ++c) {
-            if (!serves(c, p, n)) continue;
-            usable_serves |= atlas.usable[c] != 0;
-            const float d2 = length_sq(atlas.position[c] - p);
-            if (d2 < nearest_d2) nearest_d2 = d2, nearest = int(c);
+        Vec3 center;
+        int expect;
+        if (guide.cell_center(p, &center)) {
+            // Inside the grid: the cell's answer for n's axis, chosen at the cell's centre.
+            ++in_grid;
+            ASSERT_LE(length_sq(center - p), 3.0f) << "query " << q;  // (cells are ~0.5 wide here)
+            expect = nearest_serving(center, axes[Guide::normal_class(n)], Guide::kAnswerCandidates);
+        } else {
+            ++outside;
+            expect = nearest_serving(p, n, 8);
         }
+        unusable_chosen += expect >= 0 && !atlas.usable[size_t(expect)];
+        if (expect >= 0 && !atlas.usable[size_t(expect)]) expect = -1;  // it claims the vertex, unguided
         const int c = guide.lookup(p, n);
-        if (nearest >= 0 && nearest_d2 <= sqr(guide.lookup_reach())) {
-            // Within reach the nearest serving cache decides: it guides, or the vertex is unguided.
-            ASSERT_EQ(c, atlas.usable[size_t(nearest)] ? nearest : -1) << "query " << q;
-            unusable_nearest += !atlas.usable[size_t(nearest)];
-        }
-        if (!usable_serves) {
-            ASSERT_EQ(c, -1) << "query " << q;
-        }
+        ASSERT_EQ(c, expect) << "query " << q;
         if (c < 0) {
             ++none;
             continue;
         }
         ++found;
         EXPECT_TRUE(atlas.usable[size_t(c)]);
-        EXPECT_TRUE(serves(size_t(c), p, n));
     }
     // Every outcome occurs, so no branch went untested.
     EXPECT_GT(found, 1000);
     EXPECT_GT(none, 1000);
-    EXPECT_GT(unusable_nearest, 100);
+    EXPECT_GT(unusable_chosen, 100);
+    EXPECT_GT(in_grid, 1000);
+    EXPECT_GT(outside, 1000);
     EXPECT_EQ(guide.lookup(Vec3(1e30f, 0, 0), Vec3(0, 0, 1)), -1);
     EXPECT_EQ(guide.lookup(Vec3(std::nanf(""), 0, 0), Vec3(0, 0, 1)), -1);
 }

@@ -38,7 +38,7 @@ namespace {
 constexpr float kLookupSlack = 1.5f;
 // Normal agreement between cache and vertex (cos 45 degrees).
 constexpr float kLookupNormalCos = 0.7071f;
-// Caches the tree fallback looks at (nearest first) where no cache of the vertex's cell serves it.
+// Caches the tree fallback looks at (nearest first) for a vertex outside the grid.
 constexpr uint32_t kLookupCandidates = 8;
 }  // namespace
 
@@ -109,8 +109,14 @@ void Guide::build_grid(const std::vector<uint32_t>& claimants) {
     for (uint32_t c : claimants) positions_.push_back(atlas_.position[c]);
     claimant_ids_ = claimants;
     tree_ = std::make_unique<PointTree>(positions_);
-    // Caches overlap heavily (serving radii are many spacings wide), so cells are sized by the spacing:
-    // twice the median distance between neighbouring caches (over a sample), a handful of caches each.
+    max_serve2_ = 0;
+    for (uint32_t c : claimants) max_serve2_ = std::max(max_serve2_, sqr(atlas_.radius[c] * kLookupSlack));
+    max_serve2_ = std::nextafter(max_serve2_, kInf);  // the tree's bound is exclusive
+    // Cells two cache spacings wide (the median distance between neighbouring caches, over a sample):
+    // a vertex is then at most ~1.7 spacings from the centre its answer was chosen for, while the
+    // caches serve several spacings around them. (One spacing, with the grid reaching two cells
+    // around each cache, gave the same noise per sample on the glass spheres, 3x the cells and a
+    // slower render.)
     std::vector<float> spacing;
     const size_t n = positions_.size(), step = std::max<size_t>(1, n / 2000);
     for (size_t i = 0; i < n; i += step) {
@@ -124,69 +130,85 @@ void Guide::build_grid(const std::vector<uint32_t>& claimants) {
         cell = 2.0f * spacing[spacing.size() / 2];
     }
     if (!(cell > 0) || !std::isfinite(cell)) cell = 1.0f;
+    // The grid covers every cell within one cell of a cache: the surfaces around the caches, where the
+    // vertices that caches can serve lie (on the glass spheres every vertex; half a cell left 1 % of
+    // them to the tree); elsewhere the tree decides.
+    const float reach = cell;
+    Vec3 lo_all(kInf), hi_all(-kInf);
+    for (Vec3 p : positions_) lo_all = vmin(lo_all, p - Vec3(reach)), hi_all = vmax(hi_all, p + Vec3(reach));
+    grid_origin_ = lo_all;
+    // Grow the cells until the grid fits 2^21 cells per axis (only for scenes whose caches span more
+    // than two million spacings).
+    const float extent = max_component(hi_all - lo_all);
+    cell = std::max(cell, extent / float(1 << 20));
     inv_cell_ = 1.0f / cell;
-    // Each cache is listed in every cell within half a cell of it, so a cell's list holds every cache
-    // closer than half a cell to any of its points: the nearest cache is almost always among them.
-    const float reach = 0.5f * cell;
-    reach_ = reach;
-    max_serve2_ = 0;
-    for (uint32_t c : claimants) max_serve2_ = std::max(max_serve2_, sqr(atlas_.radius[c] * kLookupSlack));
-    max_serve2_ = std::nextafter(max_serve2_, kInf);  // the tree's bound is exclusive
-    grid_origin_ = Vec3(kInf);
-    for (Vec3 p : positions_) grid_origin_ = vmin(grid_origin_, p - Vec3(reach));
-    std::vector<std::pair<uint64_t, uint32_t>> listed;
-    listed.reserve(4 * n);
+    std::vector<uint64_t> keys;
+    keys.reserve(8 * n);
     for (size_t i = 0; i < n; ++i) {
-        const Vec3 lo = (positions_[i] - Vec3(reach) - grid_origin_) * inv_cell_;
-        const Vec3 hi = (positions_[i] + Vec3(reach) - grid_origin_) * inv_cell_;
-        for (int64_t z = int64_t(std::floor(lo.z)); z <= int64_t(std::floor(hi.z)); ++z)
-            for (int64_t y = int64_t(std::floor(lo.y)); y <= int64_t(std::floor(hi.y)); ++y)
-                for (int64_t x = int64_t(std::floor(lo.x)); x <= int64_t(std::floor(hi.x)); ++x)
-                    listed.push_back({cell_key(x, y, z), uint32_t(i)});
+        int64_t x0, y0, z0, x1, y1, z1;
+        if (!cell_of(positions_[i] - Vec3(reach), &x0, &y0, &z0)) continue;
+        if (!cell_of(positions_[i] + Vec3(reach), &x1, &y1, &z1)) continue;
+        for (int64_t z = z0; z <= z1; ++z)
+            for (int64_t y = y0; y <= y1; ++y)
+                for (int64_t x = x0; x <= x1; ++x) keys.push_back(cell_key(x, y, z));
     }
-    std::sort(listed.begin(), listed.end());
-    size_t cells = 0;
-    for (size_t i = 0; i < listed.size(); ++i) cells += (i == 0 || listed[i].first != listed[i - 1].first);
+    std::sort(keys.begin(), keys.end());
+    keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
     size_t cap = 16;
-    while (cap < 2 * cells) cap *= 2;
+    while (cap < 2 * keys.size()) cap *= 2;
     slots_.assign(cap, Slot{});
-    entries_.clear();
-    entries_.reserve(listed.size());
-    for (size_t i = 0; i < listed.size();) {
-        const uint64_t key = listed[i].first;
+    const Vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+    for (uint64_t key : keys) {
         Slot s;
         s.key = key;
-        s.begin = uint32_t(entries_.size());
-        for (; i < listed.size() && listed[i].first == key; ++i) {
-            const uint32_t c = claimants[listed[i].second];
-            const float r = atlas_.radius[c] * kLookupSlack;
-            entries_.push_back({atlas_.position[c], r * r, atlas_.normal[c], c});
+        const int64_t x = int64_t(key & 0x1fffff), y = int64_t((key >> 21) & 0x1fffff), z = int64_t(key >> 42);
+        const Vec3 center = grid_origin_ + Vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) * cell;
+        uint32_t idx[kAnswerCandidates];
+        float d2[kAnswerCandidates];
+        const uint32_t found = tree_->nearest(center, kAnswerCandidates, max_serve2_, idx, d2);
+        for (int a = 0; a < 6; ++a) {
+            const int c = first_serving(idx, d2, found, axes[a]);
+            s.answer[a] = c >= 0 && alpha_[size_t(c)] < 1 ? c : -1;
         }
-        s.end = uint32_t(entries_.size());
         size_t slot = mix64(key) & (cap - 1);
         while (slots_[slot].key != ~0ull) slot = (slot + 1) & (cap - 1);
         slots_[slot] = s;
     }
 }
 
-uint64_t Guide::cell_key(int64_t x, int64_t y, int64_t z) const {
-    // 21 bits per axis; cells more than 2^21 apart alias harmlessly (the scan re-tests the distance).
-    return uint64_t(x & 0x1fffff) | (uint64_t(y & 0x1fffff) << 21) | (uint64_t(z & 0x1fffff) << 42);
+const Guide::Slot* Guide::find_slot(Vec3 p) const {
+    int64_t x, y, z;
+    if (slots_.empty() || !cell_of(p, &x, &y, &z)) return nullptr;
+    const uint64_t key = cell_key(x, y, z);
+    const size_t mask = slots_.size() - 1;
+    for (size_t slot = mix64(key) & mask;; slot = (slot + 1) & mask) {
+        const Slot& s = slots_[slot];
+        if (s.key == key) return &s;
+        if (s.key == ~0ull) return nullptr;
+    }
+}
+
+bool Guide::cell_center(Vec3 p, Vec3* center) const {
+    int64_t x, y, z;
+    if (!find_slot(p) || !cell_of(p, &x, &y, &z)) return false;
+    *center = grid_origin_ + Vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) / inv_cell_;
+    return true;
 }
 
 int Guide::lookup(Vec3 p, Vec3 n_side) const {
     if (slots_.empty() || !is_finite(p)) return -1;
-    // The grid lists in p's cell every cache within `reach` of p, so its answer is the nearest serving
-    // cache whenever one is that close; a farther one it finds serves too, and is used as it is (any
-    // fixed choice keeps the estimator unbiased; exact nearest-ness would cost a tree search at a
-    // large share of vertices). Only when the cell has none does the tree decide.
-    float d2 = kInf;
-    int c = lookup_grid(p, n_side, &d2);
-    if (c < 0) c = lookup_tree(p, n_side);
-    if (c >= 0 && !(alpha_[size_t(c)] < 1)) return -1;  // claimed by a cache that does not guide
+    int c;
+    if (const Slot* s = find_slot(p)) {
+        c = s->answer[normal_class(n_side)];
+    } else {
+        // Away from every cache (surfaces the camera does not see, mostly): the nearest few decide.
+        // A vertex none of them serves stays unguided rather than searched for a distant cache with
+        // a wide disc, whose map was measured elsewhere.
+        c = nearest_serving(p, n_side);
+        if (c >= 0 && !(alpha_[size_t(c)] < 1)) c = -1;  // claimed by a cache that does not guide
+    }
     if (c >= 0) {
-        // Sampling reads the row ends first, then one row of the cdf: start loading the former now,
-        // while the vertex's shadow ray is traced.
+        // Sampling reads the row ends first, then one row of the cdf: start loading the former now.
         const size_t R = size_t(atlas_.resolution);
         const char* rows = reinterpret_cast<const char*>(row_cdf(c));
         for (size_t off = 0; off < R * sizeof(float); off += 64) __builtin_prefetch(rows + off);
@@ -195,45 +217,18 @@ int Guide::lookup(Vec3 p, Vec3 n_side) const {
     return c;
 }
 
-int Guide::lookup_grid(Vec3 p, Vec3 n_side, float* best_d2) const {
-    const Vec3 q = (p - grid_origin_) * inv_cell_;
-    // Far outside the grid (or beyond int64): left to the tree.
-    if (!(std::abs(q.x) < 1e15f && std::abs(q.y) < 1e15f && std::abs(q.z) < 1e15f)) return -1;
-    const uint64_t key = cell_key(int64_t(std::floor(q.x)), int64_t(std::floor(q.y)), int64_t(std::floor(q.z)));
-    const size_t mask = slots_.size() - 1;
-    for (size_t slot = mix64(key) & mask;; slot = (slot + 1) & mask) {
-        const Slot& s = slots_[slot];
-        if (s.key == ~0ull) return -1;
-        if (s.key != key) continue;
-        int best = -1;
-        for (uint32_t e = s.begin; e < s.end; ++e) {
-            const GridEntry& g = entries_[e];
-            const float d2 = length_sq(g.position - p);
-            if (d2 < *best_d2 && d2 <= g.radius2 && dot(g.normal, n_side) >= kLookupNormalCos) {
-                *best_d2 = d2;
-                best = int(g.cache);
-            }
-        }
-        return best;
-    }
-}
-
-bool Guide::serves(uint32_t c, Vec3 n_side, float d2) const {
-    const float r = atlas_.radius[c] * kLookupSlack;
-    return d2 <= r * r && dot(atlas_.normal[c], n_side) >= kLookupNormalCos;
-}
-
-int Guide::lookup_tree(Vec3 p, Vec3 n_side) const {
-    // The nearest few caches (sorted: the first that serves is the nearest serving one among them).
-    // A vertex that none of them serves is left unguided rather than searched for a distant cache
-    // with a wide disc: such vertices lie away from every cache (surfaces the camera does not see),
-    // where a search of all caches within the widest serving distance would cost hundreds of
-    // candidates for a map measured elsewhere.
+int Guide::nearest_serving(Vec3 p, Vec3 n_side) const {
     uint32_t idx[kLookupCandidates];
     float d2[kLookupCandidates];
-    const uint32_t n = tree_->nearest(p, kLookupCandidates, max_serve2_, idx, d2);
-    for (uint32_t i = 0; i < n; ++i)
-        if (serves(claimant_ids_[idx[i]], n_side, d2[i])) return int(claimant_ids_[idx[i]]);
+    return first_serving(idx, d2, tree_->nearest(p, kLookupCandidates, max_serve2_, idx, d2), n_side);
+}
+
+int Guide::first_serving(const uint32_t* idx, const float* d2, uint32_t n, Vec3 normal) const {
+    for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t c = claimant_ids_[idx[i]];
+        const float r = atlas_.radius[c] * kLookupSlack;
+        if (d2[i] <= r * r && dot(atlas_.normal[c], normal) >= kLookupNormalCos) return int(c);
+    }
     return -1;
 }
 

@@ -5,6 +5,7 @@
 // (DESIGN 4.1, 4.2).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -13,6 +14,7 @@
 #include "formats/cache_atlas.h"
 #include "libcommon/math.h"
 #include "libcommon/point_tree.h"
+#include "libcommon/rng.h"
 #include "libcommon/spheremap.h"
 
 namespace iris {
@@ -52,13 +54,28 @@ public:
     Guide(CacheAtlas atlas, float bsdf_fraction) : Guide(std::move(atlas), GuideOptions{bsdf_fraction, 1.0f}) {}
 
     // The guiding cache for a vertex at p whose surface side (the side the path arrives from) has
-    // normal n_side, or -1 for an unguided vertex. A cache serves p when p is within its gather radius
-    // (times a slack) and its normal within 45 degrees of n_side. The vertex takes the nearest serving
-    // cache whenever one lies within lookup_reach() of p, else the nearest serving one listed in p's
-    // grid cell, else the nearest serving one of the 8 caches nearest p -- guiding or not: -1 when that
-    // cache does not guide (too few photons, or a predicted gain below min_gain) or none is found.
+    // normal n_side, or -1 for an unguided vertex. A cache serves a point when it lies within the
+    // cache's gather radius (times a slack) and the cache's normal within 45 degrees of the point's.
+    // Inside the grid (cells about one cache spacing wide around every cache) the vertex takes its
+    // cell's answer for the axis nearest n_side (normal_class): the cache nearest the cell's centre,
+    // among the kAnswerCandidates nearest it, that serves the centre with that axis as its normal.
+    // Elsewhere it takes the nearest cache serving p itself among the 8 nearest p. Either way the
+    // choice is a fixed function of (p, n_side), as unbiased MIS requires, and -1 where the chosen
+    // cache does not guide (too few photons, or a predicted gain below min_gain) or none serves.
     // Starts loading the cache's sampling table into the CPU cache.
     int lookup(Vec3 p, Vec3 n_side) const;
+    // Which of the six axis directions (+x, -x, +y, -y, +z, -z: 0..5) is nearest n.
+    static int normal_class(Vec3 n) {
+        const float ax = std::abs(n.x), ay = std::abs(n.y), az = std::abs(n.z);
+        if (az >= ax && az >= ay) return n.z < 0 ? 5 : 4;
+        if (ay >= ax) return n.y < 0 ? 3 : 2;
+        return n.x < 0 ? 1 : 0;
+    }
+    // The centre of the grid cell holding p; false where p is outside the grid (then the lookup asks
+    // the k-d tree).
+    bool cell_center(Vec3 p, Vec3* center) const;
+    // Caches (nearest the cell's centre first) among which a cell's answers are chosen.
+    static constexpr uint32_t kAnswerCandidates = 32;
 
     // Samples a world-space direction from cache c; *pdf receives its density per steradian.
     Vec3 sample(int c, Vec2 u, float* pdf) const;
@@ -87,38 +104,42 @@ public:
     const CacheAtlas& atlas() const { return atlas_; }
     const float* cdf_row(int c) const { return table_.get() + size_t(c) * stride_ + cdf_offset_; }
     const GuideSummary& summary() const { return summary_; }
-    float lookup_reach() const { return reach_; }
     bool empty() const { return summary_.guiding == 0; }
 
 private:
-    // A hash grid over the caches that claim vertices (all with a gather disc): each cell lists, contiguous in memory with what the test
-    // needs, the caches within half a cell of it, so most lookups cost one hash probe and a short scan.
-    // Vertices whose cell lists no serving cache fall back to the k-d tree's nearest few.
-    struct GridEntry {
-        Vec3 position;
-        float radius2;   // squared distance the cache may serve
-        Vec3 normal;
-        uint32_t cache;  // index into the atlas
-    };
+    // A hash grid over the space near the caches that claim vertices (all with a gather disc). Each
+    // cell stores the lookup's answer for each normal class, so a lookup is one hash probe and one
+    // cache line: for deep (incoherent) vertices, scanning a list of candidates per cell cost two more
+    // dependent cache misses than sampling the cache itself.
     struct Slot {
         uint64_t key = ~0ull;  // ~0 = empty
-        uint32_t begin = 0, end = 0;  // entries_ range of the cell
+        int32_t answer[6];     // cache per normal class, -1 = unguided
     };
     void build_grid(const std::vector<uint32_t>& claimants);
-    // The nearest serving cache listed in p's cell (*best_d2: its squared distance, kInf if none).
-    int lookup_grid(Vec3 p, Vec3 n_side, float* best_d2) const;
-    // The nearest serving cache among the few nearest p, from the k-d tree.
-    int lookup_tree(Vec3 p, Vec3 n_side) const;
-    bool serves(uint32_t cache, Vec3 n_side, float d2) const;
-    float reach_ = 0;       // a cell lists every cache within this distance of it
+    // The slot of p's cell, or null where p's cell is not in the grid.
+    const Slot* find_slot(Vec3 p) const;
+    // The nearest cache serving (p, n_side) among the few nearest p, from the k-d tree (-1: none).
+    int nearest_serving(Vec3 p, Vec3 n_side) const;
+    // The first of n candidate caches (claimant indices idx, squared distances d2 from a point, nearest
+    // first) that serves that point for a surface of this normal (-1: none).
+    int first_serving(const uint32_t* idx, const float* d2, uint32_t n, Vec3 normal) const;
     float max_serve2_ = 0;  // largest squared serving distance of any cache
     std::vector<Vec3> positions_;        // of the caches that claim vertices (the tree's points)
     std::vector<uint32_t> claimant_ids_; // their atlas indices
     std::unique_ptr<PointTree> tree_;
-    uint64_t cell_key(int64_t x, int64_t y, int64_t z) const;
+    static uint64_t cell_key(int64_t x, int64_t y, int64_t z) {
+        return uint64_t(x) | (uint64_t(y) << 21) | (uint64_t(z) << 42);
+    }
+    // Integer coordinates of p's cell; false outside the grid's 2^21 cells per axis (so keys never alias).
+    bool cell_of(Vec3 p, int64_t* x, int64_t* y, int64_t* z) const {
+        const Vec3 q = (p - grid_origin_) * inv_cell_;
+        constexpr float kCells = float(1 << 21);
+        if (!(q.x >= 0 && q.y >= 0 && q.z >= 0 && q.x < kCells && q.y < kCells && q.z < kCells)) return false;
+        *x = int64_t(q.x), *y = int64_t(q.y), *z = int64_t(q.z);
+        return true;
+    }
     float inv_cell_ = 0;
     Vec3 grid_origin_;
-    std::vector<GridEntry> entries_;  // grouped by cell
     std::vector<Slot> slots_;         // open addressing, capacity a power of two
     CacheAtlas atlas_;
     std::vector<Frame> frames_;

@@ -90,6 +90,13 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // "outside" (sees none of it) would otherwise be decided by rounding.
         const Vec3 ref = offset_ray_origin(hit.p, hit.ng, wi_world, hit.magnitude);
 
+        // A guided vertex costs mostly memory latency, not arithmetic: deep vertices land anywhere in the
+        // scene, so p's grid cell and the cache's cdf rows are rarely in the CPU's caches. The work is
+        // ordered to hide it: the lookup starts loading the cache's row ends, the light is sampled
+        // (arithmetic only) meanwhile, the continuation's row search then reads them and starts loading
+        // its row, which arrives while the shadow ray is traced.
+        const bool guided_here = guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf);
+
         // The cache serving this vertex, and the one-sample mixture of BSDF and cache sampling (DESIGN
         // 4.3). The cache replaces only the lobes bsdf_guidable_share/pdf name (a layered BSDF keeps its
         // coat: a map cannot resolve a glossy highlight): of those, the share alpha stays with the BSDF.
@@ -97,7 +104,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // i.e. the coat as the BSDF samples it, plus g (alpha p_lobes + (1 - alpha) p_cache).
         int cache = -1;
         float alpha = 1.0f, g = 0.0f;
-        if (guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf)) {
+        if (guided_here) {
             ++guided_vertices;
             Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
             cache = guide->lookup(hit.p, n_side);
@@ -106,6 +113,17 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 g = bsdf_guidable_share(bsdf, wi);
             }
         }
+        // Random numbers in a fixed order: the continuation's, then the light's.
+        const float uc = rng.next_float();
+        const Vec2 u{rng.next_float(), rng.next_float()};
+        LightSample ls;
+        bool light_found = false;  // NEE only where the BSDF has a non-delta part
+        if (use_nee && !delta_only) {
+            const float u_sel = rng.next_float();
+            const Vec2 u_light{rng.next_float(), rng.next_float()};
+            light_found = sample_light(scene, ref, u_sel, u_light, &ls) && ls.pdf > 0 && !is_black(ls.radiance);
+        }
+
         const float k_cache = (1 - alpha) * g;  // probability of the cache technique (0 unguided)
         auto mix_from = [&](Vec3 wo, float p_bsdf, float p_cache) {
             // Where the whole BSDF is replaceable (g = 1) q is p_bsdf itself (bsdf.h's contract): no
@@ -113,50 +131,39 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             const float q = g < 1 ? bsdf_guidable_pdf(bsdf, wi, wo) : p_bsdf;
             return std::max(0.0f, p_bsdf + (1 - alpha) * (g * p_cache - q));
         };
-
-        // The continuation's random numbers are drawn first, so that where the cache technique will be
-        // chosen its cdf row can start loading now and arrive while the shadow ray is traced.
-        const float uc = rng.next_float();
-        const Vec2 u{rng.next_float(), rng.next_float()};
         const bool use_cache = cache >= 0 && uc >= 1 - k_cache;
         if (use_cache) guide->prefetch_sample(cache, u);
 
-        // Next-event estimation (only where the BSDF has a non-delta part), MIS-weighted against the
-        // continuation's full mixture density.
-        if (use_nee && !delta_only) {
-            LightSample ls;
-            float u_sel = rng.next_float();
-            Vec2 u_light{rng.next_float(), rng.next_float()};
-            if (sample_light(scene, ref, u_sel, u_light, &ls) && ls.pdf > 0 && !is_black(ls.radiance)) {
-                Vec3 wo = hit.frame.to_local(ls.wi);
-                if (consistent_side(ls.wi, hit.ng, wo.z)) {
-                    RGB f = bsdf_eval(bsdf, wi, wo);
-                    if (!is_black(f)) {
-                        // The cache density of the light direction: its memory loads during the shadow ray.
-                        int nee_texel = -1;
-                        if (cache >= 0 && !ls.delta) {
-                            nee_texel = guide->texel(cache, ls.wi);
-                            guide->prefetch_texel(cache, nee_texel);
+        // Next-event estimation, MIS-weighted against the continuation's full mixture density.
+        if (light_found) {
+            Vec3 wo = hit.frame.to_local(ls.wi);
+            if (consistent_side(ls.wi, hit.ng, wo.z)) {
+                RGB f = bsdf_eval(bsdf, wi, wo);
+                if (!is_black(f)) {
+                    // The cache density of the light direction: its memory loads during the shadow ray.
+                    int nee_texel = -1;
+                    if (cache >= 0 && !ls.delta) {
+                        nee_texel = guide->texel(cache, ls.wi);
+                        guide->prefetch_texel(cache, nee_texel);
+                    }
+                    Vec3 from = offset_ray_origin(hit.p, hit.ng, ls.wi, hit.magnitude);
+                    bool blocked;
+                    ++counters.rays;
+                    if (std::isinf(ls.dist)) {
+                        Ray sr{from, ls.wi, 0.0f, kInf};
+                        blocked = scene.occluded(sr);
+                    } else {
+                        Vec3 to = ls.delta ? ls.p : offset_ray_origin(ls.p, ls.n, -ls.wi);
+                        blocked = scene.occluded(from, to);
+                    }
+                    if (!blocked) {
+                        float w = 1.0f;
+                        if (!ls.delta) {
+                            const float p_bsdf = bsdf_pdf(bsdf, wi, wo);
+                            const float p_mix = cache < 0 ? p_bsdf : mix_from(wo, p_bsdf, guide->texel_pdf(cache, nee_texel));
+                            w = power_heuristic(ls.pdf, p_mix);
                         }
-                        Vec3 from = offset_ray_origin(hit.p, hit.ng, ls.wi, hit.magnitude);
-                        bool blocked;
-                        ++counters.rays;
-                        if (std::isinf(ls.dist)) {
-                            Ray sr{from, ls.wi, 0.0f, kInf};
-                            blocked = scene.occluded(sr);
-                        } else {
-                            Vec3 to = ls.delta ? ls.p : offset_ray_origin(ls.p, ls.n, -ls.wi);
-                            blocked = scene.occluded(from, to);
-                        }
-                        if (!blocked) {
-                            float w = 1.0f;
-                            if (!ls.delta) {
-                                const float p_bsdf = bsdf_pdf(bsdf, wi, wo);
-                                const float p_mix = cache < 0 ? p_bsdf : mix_from(wo, p_bsdf, guide->texel_pdf(cache, nee_texel));
-                                w = power_heuristic(ls.pdf, p_mix);
-                            }
-                            L += beta * f * ls.radiance * (w / ls.pdf);
-                        }
+                        L += beta * f * ls.radiance * (w / ls.pdf);
                     }
                 }
             }
@@ -192,7 +199,8 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             } else {
                 const float p = mix_from(wo, bs.pdf, guide->pdf(cache, wo_world));
                 if (!(p > 0)) break;
-                beta *= bsdf_eval(bsdf, wi, wo) / p;
+                // f = weight * pdf of the BSDF's own sample (bsdf.h): no second evaluation of the BSDF.
+                beta *= bs.weight * (bs.pdf / p);
                 prev_pdf = p;
                 prev_delta = false;
             }
