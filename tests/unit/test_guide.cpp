@@ -96,17 +96,19 @@ TEST(GuideLookup, TakesTheCellsAnswerOrTheNearestServingCacheAndGuidesOnlyWhereI
     const Guide guide(atlas, 0.25f);  // constant fraction: every usable cache guides
     Rng rng(11, 4);
     const float slack = 1.5f, normal_cos = 0.7071f;
-    auto serves = [&](size_t c, Vec3 p, Vec3 n) {
-        const float r = atlas.radius[c] * slack;
-        return length_sq(atlas.position[c] - p) <= r * r && dot(atlas.normal[c], n) >= normal_cos;
-    };
-    // Brute force: the nearest cache serving (p, n) among the `candidates` nearest p, usable or not.
-    auto nearest_serving = [&](Vec3 p, Vec3 n, size_t candidates) {
+    // Brute force: among the `candidates` caches nearest p (usable or not), the first that serves some
+    // point of the cube of side `width` centred on p (a single point for width 0) for normal n.
+    auto nearest_serving = [&](Vec3 p, Vec3 n, size_t candidates, float width) {
         std::vector<std::pair<float, int>> by_distance;
         for (size_t c = 0; c < atlas.size(); ++c) by_distance.push_back({length_sq(atlas.position[c] - p), int(c)});
         std::partial_sort(by_distance.begin(), by_distance.begin() + candidates, by_distance.end());
-        for (size_t i = 0; i < candidates; ++i)
-            if (serves(size_t(by_distance[i].second), p, n)) return by_distance[i].second;
+        for (size_t i = 0; i < candidates; ++i) {
+            const size_t c = size_t(by_distance[i].second);
+            const Vec3 e = atlas.position[c] - p;
+            const Vec3 d = vmax(Vec3(std::abs(e.x), std::abs(e.y), std::abs(e.z)) - Vec3(0.5f * width), Vec3(0.0f));
+            const float r = atlas.radius[c] * slack;
+            if (length_sq(d) <= r * r && dot(atlas.normal[c], n) >= normal_cos) return int(c);
+        }
         return -1;
     };
     const Vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
@@ -118,15 +120,17 @@ TEST(GuideLookup, TakesTheCellsAnswerOrTheNearestServingCacheAndGuidesOnlyWhereI
         const Vec3 p{rng.next_float() * 14 - 2, rng.next_float() * 14 - 2, z + 0.02f * (rng.next_float() - 0.5f)};
         const Vec3 n = normalize(Vec3(rng.next_float() - 0.5f, rng.next_float() - 0.5f, q % 2 ? 1.0f : -1.0f));
         Vec3 center;
+        float width;
         int expect;
-        if (guide.cell_center(p, &center)) {
-            // Inside the grid: the cell's answer for n's axis, chosen at the cell's centre.
+        if (guide.cell_center(p, &center, &width)) {
+            // Inside the grid: the cell's answer for n's axis, chosen for the cell.
             ++in_grid;
-            ASSERT_LE(length_sq(center - p), 3.0f) << "query " << q;  // (cells are ~0.5 wide here)
-            expect = nearest_serving(center, axes[Guide::normal_class(n)], Guide::kAnswerCandidates);
+            const Vec3 o = center - p;
+            ASSERT_LE(std::max({std::abs(o.x), std::abs(o.y), std::abs(o.z)}), 0.5f * width * 1.0001f) << "query " << q;
+            expect = nearest_serving(center, axes[Guide::normal_class(n)], Guide::kAnswerCandidates, width);
         } else {
             ++outside;
-            expect = nearest_serving(p, n, 8);
+            expect = nearest_serving(p, n, 8, 0.0f);
         }
         unusable_chosen += expect >= 0 && !atlas.usable[size_t(expect)];
         if (expect >= 0 && !atlas.usable[size_t(expect)]) expect = -1;  // it claims the vertex, unguided

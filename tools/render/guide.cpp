@@ -157,6 +157,8 @@ void Guide::build_grid(const std::vector<uint32_t>& claimants) {
     size_t cap = 16;
     while (cap < 2 * keys.size()) cap *= 2;
     slots_.assign(cap, Slot{});
+    // No cache farther than this from a cell's centre serves a point of the cell (half its diagonal).
+    const float cell_serve2 = sqr(std::sqrt(max_serve2_) + 0.8661f * cell);
     const Vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
     for (uint64_t key : keys) {
         Slot s;
@@ -165,9 +167,10 @@ void Guide::build_grid(const std::vector<uint32_t>& claimants) {
         const Vec3 center = grid_origin_ + Vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) * cell;
         uint32_t idx[kAnswerCandidates];
         float d2[kAnswerCandidates];
-        const uint32_t found = tree_->nearest(center, kAnswerCandidates, max_serve2_, idx, d2);
+        const uint32_t found = tree_->nearest(center, kAnswerCandidates, cell_serve2, idx, d2);
+        const Vec3 half(0.5f * cell);
         for (int a = 0; a < 6; ++a) {
-            const int c = first_serving(idx, d2, found, axes[a]);
+            const int c = first_serving(idx, found, center - half, center + half, axes[a]);
             s.answer[a] = c >= 0 && alpha_[size_t(c)] < 1 ? c : -1;
         }
         size_t slot = mix64(key) & (cap - 1);
@@ -188,10 +191,11 @@ const Guide::Slot* Guide::find_slot(Vec3 p) const {
     }
 }
 
-bool Guide::cell_center(Vec3 p, Vec3* center) const {
+bool Guide::cell_center(Vec3 p, Vec3* center, float* width) const {
     int64_t x, y, z;
     if (!find_slot(p) || !cell_of(p, &x, &y, &z)) return false;
-    *center = grid_origin_ + Vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) / inv_cell_;
+    *width = 1.0f / inv_cell_;
+    *center = grid_origin_ + Vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) * *width;
     return true;
 }
 
@@ -220,14 +224,16 @@ int Guide::lookup(Vec3 p, Vec3 n_side) const {
 int Guide::nearest_serving(Vec3 p, Vec3 n_side) const {
     uint32_t idx[kLookupCandidates];
     float d2[kLookupCandidates];
-    return first_serving(idx, d2, tree_->nearest(p, kLookupCandidates, max_serve2_, idx, d2), n_side);
+    return first_serving(idx, tree_->nearest(p, kLookupCandidates, max_serve2_, idx, d2), p, p, n_side);
 }
 
-int Guide::first_serving(const uint32_t* idx, const float* d2, uint32_t n, Vec3 normal) const {
+int Guide::first_serving(const uint32_t* idx, uint32_t n, Vec3 lo, Vec3 hi, Vec3 normal) const {
     for (uint32_t i = 0; i < n; ++i) {
         const uint32_t c = claimant_ids_[idx[i]];
         const float r = atlas_.radius[c] * kLookupSlack;
-        if (d2[i] <= r * r && dot(atlas_.normal[c], normal) >= kLookupNormalCos) return int(c);
+        const Vec3 q = atlas_.position[c];
+        const Vec3 out = vmax(vmax(lo - q, q - hi), Vec3(0.0f));  // q's distance from the box, per axis
+        if (length_sq(out) <= r * r && dot(atlas_.normal[c], normal) >= kLookupNormalCos) return int(c);
     }
     return -1;
 }

@@ -56,9 +56,10 @@ public:
     // The guiding cache for a vertex at p whose surface side (the side the path arrives from) has
     // normal n_side, or -1 for an unguided vertex. A cache serves a point when it lies within the
     // cache's gather radius (times a slack) and the cache's normal within 45 degrees of the point's.
-    // Inside the grid (cells about one cache spacing wide around every cache) the vertex takes its
+    // Inside the grid (cells about two cache spacings wide around every cache) the vertex takes its
     // cell's answer for the axis nearest n_side (normal_class): the cache nearest the cell's centre,
-    // among the kAnswerCandidates nearest it, that serves the centre with that axis as its normal.
+    // among the kAnswerCandidates nearest it, that serves some point of the cell with that axis as
+    // its normal.
     // Elsewhere it takes the nearest cache serving p itself among the 8 nearest p. Either way the
     // choice is a fixed function of (p, n_side), as unbiased MIS requires, and -1 where the chosen
     // cache does not guide (too few photons, or a predicted gain below min_gain) or none serves.
@@ -71,9 +72,9 @@ public:
         if (ay >= ax) return n.y < 0 ? 3 : 2;
         return n.x < 0 ? 1 : 0;
     }
-    // The centre of the grid cell holding p; false where p is outside the grid (then the lookup asks
-    // the k-d tree).
-    bool cell_center(Vec3 p, Vec3* center) const;
+    // The centre and width of the grid cell holding p; false where p is outside the grid (then the
+    // lookup asks the k-d tree).
+    bool cell_center(Vec3 p, Vec3* center, float* width) const;
     // Caches (nearest the cell's centre first) among which a cell's answers are chosen.
     static constexpr uint32_t kAnswerCandidates = 32;
 
@@ -120,9 +121,9 @@ private:
     const Slot* find_slot(Vec3 p) const;
     // The nearest cache serving (p, n_side) among the few nearest p, from the k-d tree (-1: none).
     int nearest_serving(Vec3 p, Vec3 n_side) const;
-    // The first of n candidate caches (claimant indices idx, squared distances d2 from a point, nearest
-    // first) that serves that point for a surface of this normal (-1: none).
-    int first_serving(const uint32_t* idx, const float* d2, uint32_t n, Vec3 normal) const;
+    // The first of n candidate caches (claimant indices) that serves some point of the box [lo, hi] (a
+    // cell, or a single point) for a surface of this normal (-1: none).
+    int first_serving(const uint32_t* idx, uint32_t n, Vec3 lo, Vec3 hi, Vec3 normal) const;
     float max_serve2_ = 0;  // largest squared serving distance of any cache
     std::vector<Vec3> positions_;        // of the caches that claim vertices (the tree's points)
     std::vector<uint32_t> claimant_ids_; // their atlas indices
