@@ -60,10 +60,8 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
     if (!(o.min_gain >= 1) || !std::isfinite(o.min_gain)) throw std::runtime_error("--min-gain must be >= 1");
     const size_t n = atlas_.size();
     const int R = atlas_.resolution;
-    frames_.reserve(n);
-    alpha_.assign(n, 1.0f);
     const size_t N = atlas_.texels();
-    cdf_offset_ = (size_t(R) + 15) / 16 * 16;
+    cdf_offset_ = kHeader + (size_t(R) + 15) / 16 * 16;
     stride_ = (cdf_offset_ + N + 15) / 16 * 16;
     per_sr_ = float(N) * kInv4Pi;
     table_ = allocate_table(std::max<size_t>(1, n * stride_));
@@ -74,11 +72,13 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
     // sampling keeps a share that bounds the weight where the map is wrong (defensive sampling).
     const BsdfFractionChooser chooser(std::max(R, 1), std::min(atlas_.floor, 0.999), 0.2f);
     for (size_t c = 0; c < n; ++c) {
-        frames_.emplace_back(atlas_.normal[c]);
-        float* block = table_.get() + c * stride_;
+        float* dst = table_.get() + c * stride_;
+        const Frame f(atlas_.normal[c]);
+        const float header[kHeader] = {f.s.x, f.s.y, f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, 1.0f};
+        std::copy(header, header + kHeader, dst);
         const float* cdf = atlas_.cdf_row(c);
-        std::copy(cdf, cdf + N, block + cdf_offset_);
-        for (int j = 0; j < R; ++j) block[j] = cdf[size_t(j) * size_t(R) + size_t(R - 1)];
+        std::copy(cdf, cdf + N, dst + cdf_offset_);
+        for (int j = 0; j < R; ++j) dst[kHeader + size_t(j)] = cdf[size_t(j) * size_t(R) + size_t(R - 1)];
         // Every cache that gathered photons claims the vertices near it, guiding or not: where the
         // nearest cache is not worth guiding with, the light there is what it measured, and a farther
         // cache's map (from another place) is no better a guess. It also keeps the lookup short where
@@ -92,7 +92,7 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
             if (choice.gain < o.min_gain) continue;
             alpha = choice.alpha;
         }
-        alpha_[c] = alpha;
+        dst[kAlpha] = alpha;
         sum_alpha += alpha;
         guiding.push_back(uint32_t(c));
     }
@@ -171,7 +171,7 @@ void Guide::build_grid(const std::vector<uint32_t>& claimants) {
         const Vec3 half(0.5f * cell);
         for (int a = 0; a < 6; ++a) {
             const int c = first_serving(idx, found, center - half, center + half, axes[a]);
-            s.answer[a] = c >= 0 && alpha_[size_t(c)] < 1 ? c : -1;
+            s.answer[a] = c >= 0 && bsdf_fraction(c) < 1 ? c : -1;
         }
         size_t slot = mix64(key) & (cap - 1);
         while (slots_[slot].key != ~0ull) slot = (slot + 1) & (cap - 1);
@@ -209,14 +209,13 @@ int Guide::lookup(Vec3 p, Vec3 n_side) const {
         // A vertex none of them serves stays unguided rather than searched for a distant cache with
         // a wide disc, whose map was measured elsewhere.
         c = nearest_serving(p, n_side);
-        if (c >= 0 && !(alpha_[size_t(c)] < 1)) c = -1;  // claimed by a cache that does not guide
+        if (c >= 0 && !(bsdf_fraction(c) < 1)) c = -1;  // claimed by a cache that does not guide
     }
     if (c >= 0) {
-        // Sampling reads the row ends first, then one row of the cdf: start loading the former now.
-        const size_t R = size_t(atlas_.resolution);
-        const char* rows = reinterpret_cast<const char*>(row_cdf(c));
-        for (size_t off = 0; off < R * sizeof(float); off += 64) __builtin_prefetch(rows + off);
-        __builtin_prefetch(&frames_[size_t(c)]);
+        // Every guided vertex reads the header (frame, alpha) and the row ends: start loading them now.
+        const char* head = reinterpret_cast<const char*>(block(c));
+        for (size_t off = 0; off < (kHeader + size_t(atlas_.resolution)) * sizeof(float); off += 64)
+            __builtin_prefetch(head + off);
     }
     return c;
 }
@@ -242,7 +241,7 @@ Vec3 Guide::sample(int c, Vec2 u, float* pdf) const {
     int k;
     const Vec3 local = SphereDistribution::sample_by_rows(cdf_row(c), row_cdf(c), atlas_.resolution, u, &k);
     if (pdf) *pdf = texel_pdf(c, k);
-    return frames_[size_t(c)].to_world(local);
+    return frame(c).to_world(local);
 }
 
 void Guide::prefetch_sample(int c, Vec2 u) const {

@@ -65,6 +65,12 @@ public:
     // cache does not guide (too few photons, or a predicted gain below min_gain) or none serves.
     // Starts loading the cache's sampling table into the CPU cache.
     int lookup(Vec3 p, Vec3 n_side) const;
+    // Starts loading the grid slot that lookup(p, ...) reads first (its first cache miss).
+    void prefetch_lookup(Vec3 p) const {
+        int64_t x, y, z;
+        if (!slots_.empty() && cell_of(p, &x, &y, &z))
+            __builtin_prefetch(&slots_[mix64(cell_key(x, y, z)) & (slots_.size() - 1)]);
+    }
     // Which of the six axis directions (+x, -x, +y, -y, +z, -z: 0..5) is nearest n.
     static int normal_class(Vec3 n) {
         const float ax = std::abs(n.x), ay = std::abs(n.y), az = std::abs(n.z);
@@ -86,7 +92,7 @@ public:
     // The same in two steps, so that the integrator can start loading the memory a density needs
     // before it traces the shadow ray and read it after: texel of w in cache c's map, its density.
     int texel(int c, Vec3 w) const {
-        return sphere_texel_of(frames_[size_t(c)].to_local(w), atlas_.resolution);
+        return sphere_texel_of(frame(c).to_local(w), atlas_.resolution);
     }
     float texel_pdf(int c, int k) const {
         // As SphereDistribution::texel_pdf, reading the previous row's end from row_cdf (already loaded)
@@ -100,10 +106,10 @@ public:
     // Starts loading the cdf row that sample(c, u, ...) will search.
     void prefetch_sample(int c, Vec2 u) const;
     // Probability of BSDF sampling at a vertex that cache c serves.
-    float bsdf_fraction(int c) const { return alpha_[size_t(c)]; }
+    float bsdf_fraction(int c) const { return block(c)[kAlpha]; }
     // The atlas's fields except its maps, which live in the guide's own table (below).
     const CacheAtlas& atlas() const { return atlas_; }
-    const float* cdf_row(int c) const { return table_.get() + size_t(c) * stride_ + cdf_offset_; }
+    const float* cdf_row(int c) const { return block(c) + cdf_offset_; }
     const GuideSummary& summary() const { return summary_; }
     bool empty() const { return summary_.guiding == 0; }
 
@@ -143,14 +149,17 @@ private:
     Vec3 grid_origin_;
     std::vector<Slot> slots_;         // open addressing, capacity a power of two
     CacheAtlas atlas_;
-    std::vector<Frame> frames_;
-    std::vector<float> alpha_;        // per cache; 1 = not guiding
-    // The maps, one block of stride_ floats per cache, 64-byte aligned, in huge pages where the system
-    // allows (random access to tens of MB: every lookup would otherwise also miss the TLB):
-    //   [row_cdf: R floats, padded to 16][cdf: N, padded to 16]
-    // row_cdf[j] is the cdf at the end of row j: a search there, then in one row of the cdf, touches
-    // two cache lines where a search of the whole cdf touches five or more. Densities are derived from
-    // the cdf (the atlas's pdf is by contract the same numbers), which halves the memory read.
+    // What a guided vertex reads of each cache, one block of stride_ floats per cache, 64-byte aligned,
+    // in huge pages where the system allows (random access to tens of MB: every lookup would otherwise
+    // also miss the TLB):
+    //   [header: the cache's frame s, t, n (9 floats), alpha, padded to 16][row_cdf: R floats, padded
+    //    to 16][cdf: N, padded to 16]
+    // The header's line and the row ends are what every guided vertex needs (alpha 1 = not guiding),
+    // adjacent so that they load together. row_cdf[j] is the cdf at the end of row j: a search there,
+    // then in one row of the cdf, touches two cache lines where a search of the whole cdf touches five
+    // or more. Densities are derived from the cdf (the atlas's pdf is by contract the same numbers),
+    // which halves the memory read.
+    static constexpr size_t kHeader = 16, kAlpha = 9;
     struct FreeTable {
         void operator()(float* p) const;
     };
@@ -158,7 +167,16 @@ private:
     std::unique_ptr<float[], FreeTable> table_;
     size_t stride_ = 0, cdf_offset_ = 0;
     float per_sr_ = 0;  // N / (4 pi): texel probability -> density per steradian
-    const float* row_cdf(int c) const { return table_.get() + size_t(c) * stride_; }
+    const float* block(int c) const { return table_.get() + size_t(c) * stride_; }
+    const float* row_cdf(int c) const { return block(c) + kHeader; }
+    Frame frame(int c) const {
+        const float* h = block(c);
+        Frame f;
+        f.s = {h[0], h[1], h[2]};
+        f.t = {h[3], h[4], h[5]};
+        f.n = {h[6], h[7], h[8]};
+        return f;
+    }
     GuideSummary summary_;
 };
 

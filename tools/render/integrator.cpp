@@ -92,10 +92,23 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
 
         // A guided vertex costs mostly memory latency, not arithmetic: deep vertices land anywhere in the
         // scene, so p's grid cell and the cache's cdf rows are rarely in the CPU's caches. The work is
-        // ordered to hide it: the lookup starts loading the cache's row ends, the light is sampled
-        // (arithmetic only) meanwhile, the continuation's row search then reads them and starts loading
-        // its row, which arrives while the shadow ray is traced.
+        // ordered to hide it: p's grid cell starts loading first and the light is sampled (arithmetic
+        // only) meanwhile; the lookup starts loading the cache's row ends and frame, and NEE's BSDF
+        // evaluation runs meanwhile; the continuation's row search then reads the row ends and starts
+        // loading its row, which arrives while the shadow ray is traced.
         const bool guided_here = guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf);
+        if (guided_here) guide->prefetch_lookup(hit.p);
+
+        // Random numbers in a fixed order: the continuation's, then the light's.
+        const float uc = rng.next_float();
+        const Vec2 u{rng.next_float(), rng.next_float()};
+        LightSample ls;
+        bool light_found = false;  // NEE only where the BSDF has a non-delta part
+        if (use_nee && !delta_only) {
+            const float u_sel = rng.next_float();
+            const Vec2 u_light{rng.next_float(), rng.next_float()};
+            light_found = sample_light(scene, ref, u_sel, u_light, &ls) && ls.pdf > 0 && !is_black(ls.radiance);
+        }
 
         // The cache serving this vertex, and the one-sample mixture of BSDF and cache sampling (DESIGN
         // 4.3). The cache replaces only the lobes bsdf_guidable_share/pdf name (a layered BSDF keeps its
@@ -113,17 +126,6 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 g = bsdf_guidable_share(bsdf, wi);
             }
         }
-        // Random numbers in a fixed order: the continuation's, then the light's.
-        const float uc = rng.next_float();
-        const Vec2 u{rng.next_float(), rng.next_float()};
-        LightSample ls;
-        bool light_found = false;  // NEE only where the BSDF has a non-delta part
-        if (use_nee && !delta_only) {
-            const float u_sel = rng.next_float();
-            const Vec2 u_light{rng.next_float(), rng.next_float()};
-            light_found = sample_light(scene, ref, u_sel, u_light, &ls) && ls.pdf > 0 && !is_black(ls.radiance);
-        }
-
         const float k_cache = (1 - alpha) * g;  // probability of the cache technique (0 unguided)
         auto mix_from = [&](Vec3 wo, float p_bsdf, float p_cache) {
             // Where the whole BSDF is replaceable (g = 1) q is p_bsdf itself (bsdf.h's contract): no
@@ -132,7 +134,11 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             return std::max(0.0f, p_bsdf + (1 - alpha) * (g * p_cache - q));
         };
         const bool use_cache = cache >= 0 && uc >= 1 - k_cache;
-        if (use_cache) guide->prefetch_sample(cache, u);
+        bool row_started = !use_cache;
+        auto start_row = [&] {  // once, as late as possible before the shadow ray or the continuation
+            if (!row_started) guide->prefetch_sample(cache, u);
+            row_started = true;
+        };
 
         // Next-event estimation, MIS-weighted against the continuation's full mixture density.
         if (light_found) {
@@ -146,6 +152,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                         nee_texel = guide->texel(cache, ls.wi);
                         guide->prefetch_texel(cache, nee_texel);
                     }
+                    start_row();
                     Vec3 from = offset_ray_origin(hit.p, hit.ng, ls.wi, hit.magnitude);
                     bool blocked;
                     ++counters.rays;
@@ -170,6 +177,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         }
 
         // Continue the path: BSDF sampling, or (guided) a one-sample choice between BSDF and cache.
+        start_row();
         Vec3 wo_world;
         if (cache < 0) {
             BsdfSample bs;
