@@ -30,7 +30,9 @@ median() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
 for s in "${scenes[@]}"; do
   name=$(basename "$s" .xml)
   out=out/bench-guiding/$name
-  make -s -f pipelines/guided.mk SCENE="$seeds/$s" OUT="$out" TIME="$time_budget" REF_SPP="$ref_spp" compare >/dev/null 2>&1
+  # The parameters of that first measurement, pinned (the pipeline's defaults have moved on since).
+  make -s -f pipelines/guided.mk SCENE="$seeds/$s" OUT="$out" TIME="$time_budget" REF_SPP="$ref_spp" \
+    PATHS=250000 COUNT=20000 K=2000 RES=16 MIN_CAUSTIC=0 MODE=nee+bsdf+cache BSDF_FRACTION=0.25 compare >/dev/null 2>&1
   pt=$(cat "$out/photons.seconds"); ct=$(cat "$out/caches.seconds"); at=$(cat "$out/atlas.seconds")
   prep=$(awk -v a="$pt" -v b="$ct" -v c="$at" 'BEGIN{printf "%.2f", a+b+c}')
   maps=$(awk -v n=20000 'BEGIN{printf "%.1f", n*256*4*2/1e6}')

@@ -225,7 +225,7 @@ TEST(GuidingMis, WeightsSumToOneWithSphereAndPointLights) {
 TEST(GuidingMis, WeightsSumToOneOnLayeredBsdfs) {
     GuidedScene s = make_setup("guiding/layered_tiles_box.xml");
     Tally t;
-    check_scene(s, 3000, 40, &t);
+    check_scene(s, 3000, 48, &t);
     EXPECT_GT(t.layered_vertices, 150) << "too few guided vertices on the plastic, rough plastic and Ward tiles";
     EXPECT_GT(t.nee_paths, 40000);
     EXPECT_GT(t.hit_paths, 3000);

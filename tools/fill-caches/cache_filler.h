@@ -13,7 +13,7 @@ namespace iris {
 
 struct FillOptions {
     uint32_t k = 2000;            // photons gathered per cache
-    int resolution = 16;          // R: the map has R x R texels over the whole sphere
+    int resolution = 32;          // R: the map has R x R texels over the whole sphere (pipelines/guided.mk says why 32)
     double max_radius = 0.05;     // gather radius limit, as a fraction of the scene's bounding-box diagonal
     uint32_t min_photons = 32;    // fewer usable photons than this: the cache is marked unusable
     double filter_sigma = 0.75;   // Gaussian smoothing, standard deviation in texels (0 = no filter)
