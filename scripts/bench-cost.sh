@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Where the per-sample cost of guided rendering comes from (issue 4): per guided seed scene, the seconds
-# per sample of four settings at equal spp, median of 3 interleaved runs, side by side in one run:
+# per sample of four settings at equal spp, median of 5 interleaved runs, side by side in one run:
 #   unguided            nee+bsdf with the default Russian roulette (the benchmark's baseline)
 #   unguided, rr 0.1    the same with the deep setting's roulette (survival below throughput 0.1 only)
 #   first vertex        nee+bsdf+cache guiding the first non-specular vertex (default roulette)
@@ -27,7 +27,7 @@ ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a / b}'; }
   echo "## Per-sample cost of guided rendering, decomposed"
   echo
   echo "\`scripts/bench-cost.sh $spp $scale\`, $(date -u +%Y-%m-%d), $(nproc) threads, $spp spp at scale $scale, median"
-  echo "of 3 interleaved runs (render's own seconds). Ratios are to the unguided path tracer with the default roulette"
+  echo "of 5 interleaved runs (render's own seconds). Ratios are to the unguided path tracer with the default roulette"
   echo "unless named: *paths* = unguided with roulette below 0.1 / unguided (the deep setting's longer paths),"
   echo "*guiding* = every vertex / unguided with roulette below 0.1 (lookups and cache sampling at every vertex)."
   echo
@@ -42,7 +42,7 @@ for s in "${scenes[@]}"; do
   atlas=$out/$name/atlas.h5
   declare -A t=()
   settings=(unguided rr01 first every)
-  for rep in 1 2 3; do
+  for rep in 1 2 3 4 5; do
     for k in "${settings[@]}"; do
       case $k in
         unguided) args=(--mode nee+bsdf) ;;
