@@ -58,10 +58,9 @@ public:
     // cache's gather radius (times a slack) and the cache's normal within 45 degrees of the point's.
     // Inside the grid (cells about two cache spacings wide around every cache) the vertex takes its
     // cell's answer for the axis nearest n_side (normal_class): the cache nearest the cell's centre,
-    // among the kAnswerCandidates nearest it, that serves some point of the cell with that axis as
-    // its normal.
-    // Elsewhere it takes the nearest cache serving p itself among the 8 nearest p. Either way the
-    // choice is a fixed function of (p, n_side), as unbiased MIS requires, and -1 where the chosen
+    // among the kAnswerCandidates nearest it, that serves some point of the cell with that axis as its
+    // normal. Elsewhere it takes the nearest cache serving p itself among the 8 nearest p. Either way
+    // the choice is a fixed function of (p, n_side), as unbiased MIS requires, and -1 where the chosen
     // cache does not guide (too few photons, or a predicted gain below min_gain) or none serves.
     // Starts loading the cache's sampling table into the CPU cache.
     int lookup(Vec3 p, Vec3 n_side) const;
