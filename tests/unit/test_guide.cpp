@@ -2,9 +2,9 @@
 // (libcommon/bsdf_fraction.h):
 //   - the two-level cdf search gives bit for bit the sample of the plain search, and the density derived
 //     from the cdf is bit for bit the stored pdf (so the guide may drop the pdf table);
-//   - the lookup takes its grid cell's answer for the vertex's normal axis (the nearest cache serving the
-//     cell's centre) or, outside the grid, the nearest cache serving the vertex, guiding or not,
-//     compared against brute force;
+//   - the lookup takes its grid cell's answer for the vertex's normal axis (the cache nearest the cell's
+//     centre that serves some point of the cell) or, outside the grid, the nearest cache serving the
+//     vertex, guiding or not, compared against brute force;
 //   - the BSDF fraction: a cache whose distribution is the cosine gains nothing and is not used, a
 //     peaked one gets a small alpha and a large predicted gain.
 #include <gtest/gtest.h>
