@@ -14,7 +14,6 @@
 #include "formats/cache_atlas.h"
 #include "libcommon/math.h"
 #include "libcommon/point_tree.h"
-#include "libcommon/rng.h"
 #include "libcommon/spheremap.h"
 
 namespace iris {
@@ -64,12 +63,6 @@ public:
     // cache does not guide (too few photons, or a predicted gain below min_gain) or none serves.
     // Starts loading the cache's sampling table into the CPU cache.
     int lookup(Vec3 p, Vec3 n_side) const;
-    // Starts loading the grid slot that lookup(p, ...) reads first (its first cache miss).
-    void prefetch_lookup(Vec3 p) const {
-        int64_t x, y, z;
-        if (!slots_.empty() && cell_of(p, &x, &y, &z))
-            __builtin_prefetch(&slots_[mix64(cell_key(x, y, z)) & (slots_.size() - 1)]);
-    }
     // Which of the six axis directions (+x, -x, +y, -y, +z, -z: 0..5) is nearest n.
     static int normal_class(Vec3 n) {
         const float ax = std::abs(n.x), ay = std::abs(n.y), az = std::abs(n.z);

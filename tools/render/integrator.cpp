@@ -91,13 +91,10 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         const Vec3 ref = offset_ray_origin(hit.p, hit.ng, wi_world, hit.magnitude);
 
         // A guided vertex costs mostly memory latency, not arithmetic: deep vertices land anywhere in the
-        // scene, so p's grid cell and the cache's cdf rows are rarely in the CPU's caches. The work is
-        // ordered to hide it: p's grid cell starts loading first and the light is sampled (arithmetic
-        // only) meanwhile; the lookup starts loading the cache's row ends and frame, and NEE's BSDF
-        // evaluation runs meanwhile; the continuation's row search then reads the row ends and starts
-        // loading its row, which arrives while the shadow ray is traced.
+        // scene, so p's grid cell and the cache's cdf rows are rarely in the CPU's caches. The lookup
+        // starts loading the cache's header and row ends, NEE's BSDF evaluation runs meanwhile, and the
+        // continuation's row search then starts loading its row just before the shadow ray is traced.
         const bool guided_here = guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf);
-        if (guided_here) guide->prefetch_lookup(hit.p);
 
         // Random numbers in a fixed order: the continuation's, then the light's.
         const float uc = rng.next_float();
