@@ -25,7 +25,8 @@
 //   SphereMap                             float weights per texel: splat photons, filter, floor
 //   SphereFilter                          a precomputed Gaussian filter on the sphere, per (R, sigma)
 //   SphereDistribution                    pmf/cdf/pdf tables; sample/pdf/invert (also on raw
-//                                         pointers, so the renderer samples an atlas in place)
+//                                         pointers, to check an atlas's tables in place)
+// The renderer samples a compact copy of each map (libcommon/packed_map.h).
 #pragma once
 
 #include <algorithm>
@@ -272,8 +273,8 @@ private:
 //           sample() picks texel k (u.x against the cdf) is exactly the pmf that pdf[] reports:
 //           no drift between the sampler and the density from rounding the cdf to float.
 // Both sample() and pdf() take directions in the cache's local frame ("one frame, one cache", §4.2).
-// The static overloads work on raw table pointers, so the renderer samples a cache stored in an atlas's
-// flat arrays without copying it.
+// The static overloads work on raw table pointers, so a cache stored in an atlas's flat arrays can be
+// sampled without copying it.
 class SphereDistribution {
 public:
     SphereDistribution() = default;
@@ -300,16 +301,6 @@ public:
     // on the direction after a to_world/to_local round trip can land in the neighbour texel when the
     // sample lies within rounding of a texel edge.
     static inline Vec3 sample(const float* cdf, const float* pdf, int resolution, Vec2 u, float* pdf_out);
-    // The same direction (bit for bit) found by a two-level search: first in row_cdf[j] = cdf[j R + R - 1]
-    // (the cdf at the end of each row, R floats, kept beside the table by the caller), then inside that
-    // row; it touches two cache lines of an uncached table instead of ~log2(N) - 4. Instead of a
-    // density it reports the texel whose density applies (the one sample() would read pdf[] at), for
-    // callers that derive the density from the cdf (texel_pdf).
-    static inline Vec3 sample_by_rows(const float* cdf, const float* row_cdf, int resolution, Vec2 u, int* texel);
-    // Density per steradian of texel k from the cdf alone: exactly the pdf[k] that build() writes.
-    static inline float texel_pdf(const float* cdf, int resolution, int k) {
-        return (cdf[k] - (k > 0 ? cdf[k - 1] : 0.0f)) * (float(resolution * resolution) * kInv4Pi);
-    }
     // Density per steradian of direction w (unit, local frame): pdf[texel of w].
     static inline float pdf(const float* pdf_table, int resolution, Vec3 w) {
         return pdf_table[sphere_texel_of(w, resolution)];
@@ -338,7 +329,7 @@ public:
     static inline int search_cdf(const float* cdf, int n, float u);
 
 private:
-    // The direction of u inside texel k (chosen for ux), with its density; shared by both searches.
+    // The direction of u inside texel k (chosen for ux), with its density.
     // Sets *density_texel to the texel whose density applies to the direction (k, or its neighbour
     // when rounding moved a point near the edge across it).
     static inline Vec3 sample_texel(const float* cdf, int R, int k, float ux, float uy, int* density_texel);
@@ -363,17 +354,6 @@ inline Vec3 SphereDistribution::sample(const float* cdf, const float* pdf, int R
     const Vec3 w = sample_texel(cdf, R, search_cdf(cdf, R * R, ux), ux, uy, &texel);
     if (pdf_out) *pdf_out = pdf[texel];
     return w;
-}
-
-inline Vec3 SphereDistribution::sample_by_rows(const float* cdf, const float* row_cdf, int R, Vec2 u, int* texel) {
-    constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
-    const float ux = !(u.x >= 0.0f) ? 0.0f : std::min(u.x, kOneMinusEpsilon);
-    const float uy = !(u.y >= 0.0f) ? 0.0f : std::min(u.y, kOneMinusEpsilon);
-    // The first row whose last cdf value exceeds ux holds the first texel whose cdf exceeds ux (the cdf
-    // is non-decreasing and ends at 1 > ux): the same k as search_cdf over the whole table.
-    const int j = search_cdf(row_cdf, R, ux);
-    const int k = j * R + search_cdf(cdf + size_t(j) * size_t(R), R, ux);
-    return sample_texel(cdf, R, k, ux, uy, texel);
 }
 
 inline Vec3 SphereDistribution::sample_texel(const float* cdf, int R, int k, float ux, float uy, int* density_texel) {

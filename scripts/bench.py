@@ -17,6 +17,7 @@ total cost. Efficiency = 1 / (relMSE x time); its ratio to nee+bsdf at the same 
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -194,15 +195,14 @@ def cmd_runs(a):
                 pipeline_vars=a.pipeline_vars, rows=rows, date=time.strftime("%Y-%m-%d"),
                 threads=os.cpu_count())
     if guided_modes:
-        # Memory the renderer holds for the maps: per cache, the row ends and the cdf, each padded to
-        # 16 floats (tools/render/guide.h).
+        # Memory the renderer holds for the maps, as inspect-caches reports it.
         _, out, _ = run([BIN + "/inspect-caches", fixed["atlas"]])
         stats = dict(line.split(None, 1) for line in out.splitlines() if line.startswith(("caches ", "map ")))
+        table = re.search(r"^render's table .*\((\d+) bytes\)", out, re.M)
         caches = int(stats["caches"].split()[0])
         res = int(stats["map"].split()[1])
         info["auto_caches"] = auto_caches
-        pad = lambda n: (n + 15) // 16 * 16
-        info["table_bytes"] = caches * (pad(res) + pad(res * res)) * 4
+        info["table_bytes"] = int(table.group(1))
         info["caches"] = caches
         info["map_resolution"] = res
     with open(os.path.join(a.out, "results.json.tmp"), "w") as f:

@@ -1,7 +1,6 @@
 // The renderer's side of the cache atlas (tools/render/guide.h) and the per-cache BSDF fraction
 // (libcommon/bsdf_fraction.h):
-//   - the two-level cdf search gives bit for bit the sample of the plain search, and the density derived
-//     from the cdf is bit for bit the stored pdf (so the guide may drop the pdf table);
+//   - the packed maps the guide samples are exact distributions within their quantisation of the atlas's;
 //   - the lookup takes its grid cell's answer for the vertex's normal axis (the cache nearest the cell's
 //     centre that serves some point of the cell) or, outside the grid, the nearest cache serving the
 //     vertex, guiding or not, compared against brute force;
@@ -11,8 +10,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "libcommon/bsdf_fraction.h"
+#include "libcommon/packed_map.h"
 #include "libcommon/rng.h"
 #include "libcommon/sampling.h"
 #include "libcommon/spheremap.h"
@@ -21,40 +22,86 @@
 namespace iris {
 namespace {
 
-// A distribution with a few bright texels over a varying background, and some exact zeros.
+// Weights with exact zeros (10 %), a varying background and a few texels 50x brighter: every positive
+// weight is within 2^-14 of the brightest, inside the packed codes' range (2^-15.9).
 std::vector<float> lumpy_weights(int R, uint64_t seed) {
     Rng rng(seed, 1);
     std::vector<float> w(size_t(R * R));
-    for (float& v : w) v = rng.next_float() < 0.1f ? 0.0f : rng.next_float();
+    for (float& v : w) v = rng.next_float() < 0.1f ? 0.0f : 0.01f + rng.next_float();
     for (int i = 0; i < 3; ++i) w[size_t(rng.next_float() * float(R * R)) % w.size()] += 50.0f;
     return w;
 }
 
-TEST(GuideTable, RowSearchSamplesExactlyLikeThePlainSearch) {
-    for (int R : {1, 7, 16, 32}) {
+// The packed map (libcommon/packed_map.h) is an exact distribution of its own: its densities integrate
+// to one, are zero exactly where the atlas's are, and its samples report exactly the density texel_pdf
+// gives their direction. It stays within its quantisation of the atlas's density: a code is within
+// 2^(1/32) of its texel's value, so a texel's share of its row and the row's share of the total are
+// within 2^(2/32) each, and the row's counts within R / 65535 of the quantised share (rounding, the
+// minimum of one count, the rounding's total given to the largest row).
+TEST(PackedMap, IsAnExactDistributionWithinItsQuantisationOfTheAtlasMap) {
+    for (int R : {1, 7, 16, 32, 256}) {
+        SCOPED_TRACE("R " + std::to_string(R));
         const int N = R * R;
-        std::vector<float> cdf(static_cast<size_t>(N)), pdf(static_cast<size_t>(N)), row_cdf(static_cast<size_t>(R));
+        const float per_sr = float(N) * kInv4Pi;
+        std::vector<float> cdf(static_cast<size_t>(N)), pdf(static_cast<size_t>(N));
         SphereDistribution::build(lumpy_weights(R, uint64_t(R)).data(), R, cdf.data(), pdf.data());
-        for (int j = 0; j < R; ++j) row_cdf[size_t(j)] = cdf[size_t(j * R + R - 1)];
-        for (int k = 0; k < N; ++k)
-            ASSERT_EQ(SphereDistribution::texel_pdf(cdf.data(), R, k), pdf[size_t(k)]) << "R " << R << " texel " << k;
+        std::vector<unsigned char> storage(packed_map::bytes(R) + 64);
+        unsigned char* map = storage.data() + (64 - reinterpret_cast<uintptr_t>(storage.data()) % 64) % 64;
+        packed_map::encode(pdf.data(), R, map);
+        const uint16_t* ends = packed_map::row_end(map);
+        ASSERT_EQ(ends[R - 1], packed_map::kRowTotal);
+        const double total = std::accumulate(pdf.begin(), pdf.end(), 0.0);
+        const double q = std::exp2(2.0 / 32);
+        for (int j = 0; j < R; ++j) {
+            double row = 0;
+            for (int i = 0; i < R; ++i) row += pdf[size_t(j * R + i)];
+            const int count = int(ends[j]) - (j > 0 ? int(ends[j - 1]) : 0);
+            ASSERT_GE(count, 0);
+            EXPECT_EQ(count > 0, row > 0) << "row " << j;
+            const double e = double(R) / (packed_map::kRowTotal * (row / total));
+            for (int i = 0; i < R; ++i) {
+                const int k = j * R + i;
+                const float p = packed_map::texel_pdf(map, R, k, per_sr);
+                EXPECT_EQ(p > 0, pdf[size_t(k)] > 0) << "texel " << k;
+                if (!(pdf[size_t(k)] > 0)) continue;
+                const double ratio = double(p) / double(pdf[size_t(k)]);
+                EXPECT_GE(ratio, (1 / q) * (1 / q - e) * (1 - 1e-5)) << "texel " << k;
+                EXPECT_LE(ratio, q * (q + e) * (1 + 1e-5)) << "texel " << k;
+            }
+        }
+        double sum = 0;
+        for (int k = 0; k < N; ++k) sum += double(packed_map::texel_pdf(map, R, k, per_sr)) / double(per_sr);
+        EXPECT_NEAR(sum, 1.0, 1e-5);
+
         Rng rng(99, 2);
+        int zeros = 0;
         for (int s = 0; s < 20000; ++s) {
-            // Include the ends of [0, 1) and values exactly on cdf steps.
+            // Include the ends of [0, 1) and values exactly on the rows' boundaries.
             Vec2 u{rng.next_float(), rng.next_float()};
-            if (s % 97 == 0) u.x = cdf[size_t(s % N)];
+            if (s % 97 == 0) u.x = float(ends[s % R]) / float(packed_map::kRowTotal);
             if (s == 1) u = {0.0f, 0.0f};
             if (s == 2) u = {0x1.fffffep-1f, 0x1.fffffep-1f};
-            float p_plain = -1;
-            const Vec3 a = SphereDistribution::sample(cdf.data(), pdf.data(), R, u, &p_plain);
-            int texel = -1;
-            const Vec3 b = SphereDistribution::sample_by_rows(cdf.data(), row_cdf.data(), R, u, &texel);
-            ASSERT_EQ(a.x, b.x);
-            ASSERT_EQ(a.y, b.y);
-            ASSERT_EQ(a.z, b.z);
-            ASSERT_EQ(pdf[size_t(texel)], p_plain);
+            float p = -1;
+            const Vec3 w = packed_map::sample(map, R, u, per_sr, &p);
+            ASSERT_NEAR(length(w), 1.0f, 1e-5f);
+            ASSERT_EQ(p, packed_map::texel_pdf(map, R, sphere_texel_of(w, R), per_sr)) << "u " << u.x << ", " << u.y;
+            // Zero only where a point within kEdgeMargin of its texel's edge rounds across it into a zero
+            // texel: u.x exactly on a row's start (the row's first positive texel at fx = 0) often does,
+            // random u in a few in 10^4; a sampler that picked zero texels would give 10 %.
+            zeros += p == 0 && s % 97 != 0 && s > 2;
         }
+        EXPECT_LE(zeros, 20);
     }
+}
+
+TEST(PackedMap, AllZeroDensityPacksAsUniform) {
+    const int R = 8;
+    std::vector<float> zero(size_t(R * R), 0.0f);
+    std::vector<unsigned char> map(packed_map::bytes(R));
+    packed_map::encode(zero.data(), R, map.data());
+    // Each row's share of 65535 counts is 8191.875: seven get 8192, the first 8191.
+    for (int k = 0; k < R * R; ++k)
+        EXPECT_NEAR(packed_map::texel_pdf(map.data(), R, k, float(R * R) * kInv4Pi), kInv4Pi, kInv4Pi * 1.01 / 8192) << "texel " << k;
 }
 
 // An atlas of caches on two parallel planes facing each other (normals +z at z = 0, -z at z = 1),

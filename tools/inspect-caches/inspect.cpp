@@ -110,9 +110,9 @@ std::string describe_cache_atlas(const CacheAtlas& a) {
     s += line("k, filter, sigma, floor",
               std::to_string(a.k) + ", " + a.filter + ", " + fmt("%.3g", a.filter_sigma) + ", " + fmt("%.3g", a.floor));
     s += line("memory of the maps", mib(double(a.pdf.size() + a.cdf.size()) * sizeof(float)) + " (pdf + cdf)");
-    // What render holds: per cache the row ends and the cdf, each padded to 16 floats (tools/render/guide.h).
-    const auto pad16 = [](size_t v) { return (v + 15) / 16 * 16; };
-    s += line("render's table", mib(double(a.size() * (pad16(size_t(a.resolution)) + pad16(n))) * sizeof(float)));
+    // What render holds: per cache a header and the packed map (tools/render/guide.h).
+    const size_t table = a.size() * Guide::bytes_per_cache(a.resolution);
+    s += line("render's table", mib(double(table)) + " (" + std::to_string(table) + " bytes)");
     std::vector<double> photons, radius, peak, coverage;
     for (size_t i = 0; i < a.size(); ++i) {
         photons.push_back(a.photon_count[i]);

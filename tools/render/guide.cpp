@@ -9,8 +9,9 @@
 
 #include "libcommon/bsdf_fraction.h"
 #include "libcommon/rng.h"
-#include "libcommon/spheremap.h"
+#include "libcommon/packed_map.h"
 #include "libcommon/point_tree.h"
+#include "libcommon/spheremap.h"
 
 namespace iris {
 
@@ -43,16 +44,16 @@ constexpr uint32_t kLookupCandidates = 8;
 }  // namespace
 
 // 2 MiB-aligned (the huge page size on x86-64) and advised for transparent huge pages.
-std::unique_ptr<float[], Guide::FreeTable> Guide::allocate_table(size_t floats) {
+std::unique_ptr<unsigned char[], Guide::FreeTable> Guide::allocate_table(size_t bytes) {
     constexpr size_t kHuge = size_t(2) << 20;
-    const size_t bytes = (floats * sizeof(float) + kHuge - 1) / kHuge * kHuge;
-    void* p = std::aligned_alloc(kHuge, bytes);
+    const size_t size = (bytes + kHuge - 1) / kHuge * kHuge;
+    void* p = std::aligned_alloc(kHuge, size);
     if (!p) throw std::bad_alloc();
-    madvise(p, bytes, MADV_HUGEPAGE);  // advice only: without it the table is still correct
-    return std::unique_ptr<float[], FreeTable>(static_cast<float*>(p));
+    madvise(p, size, MADV_HUGEPAGE);  // advice only: without it the table is still correct
+    return std::unique_ptr<unsigned char[], FreeTable>(static_cast<unsigned char*>(p));
 }
 
-void Guide::FreeTable::operator()(float* p) const { std::free(p); }
+void Guide::FreeTable::operator()(unsigned char* p) const { std::free(p); }
 
 Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas)) {
     const bool adaptive = o.bsdf_fraction < 0;
@@ -61,10 +62,10 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
     const size_t n = atlas_.size();
     const int R = atlas_.resolution;
     const size_t N = atlas_.texels();
-    cdf_offset_ = kHeader + (size_t(R) + 15) / 16 * 16;
-    stride_ = (cdf_offset_ + N + 15) / 16 * 16;
+    stride_ = bytes_per_cache(R);
     per_sr_ = float(N) * kInv4Pi;
     table_ = allocate_table(std::max<size_t>(1, n * stride_));
+    summary_.table_bytes = n * stride_;
     std::vector<uint32_t> guiding, claimants;
     summary_.caches = n;
     double sum_alpha = 0;
@@ -72,13 +73,12 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
     // sampling keeps a share that bounds the weight where the map is wrong (defensive sampling).
     const BsdfFractionChooser chooser(std::max(R, 1), std::min(atlas_.floor, 0.999), 0.2f);
     for (size_t c = 0; c < n; ++c) {
-        float* dst = table_.get() + c * stride_;
+        unsigned char* dst = table_.get() + c * stride_;
+        float* head = reinterpret_cast<float*>(dst);
         const Frame f(atlas_.normal[c]);
-        const float header[kHeader] = {f.s.x, f.s.y, f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, 1.0f};
-        std::copy(header, header + kHeader, dst);
-        const float* cdf = atlas_.cdf_row(c);
-        std::copy(cdf, cdf + N, dst + cdf_offset_);
-        for (int j = 0; j < R; ++j) dst[kHeader + size_t(j)] = cdf[size_t(j) * size_t(R) + size_t(R - 1)];
+        const float h[kHeader] = {f.s.x, f.s.y, f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, 1.0f};
+        std::copy(h, h + kHeader, head);
+        packed_map::encode(atlas_.pdf_row(c), R, dst + kHeader * sizeof(float));
         // Every cache that gathered photons claims the vertices near it, guiding or not: where the
         // nearest cache is not worth guiding with, the light there is what it measured, and a farther
         // cache's map (from another place) is no better a guess. It also keeps the lookup short where
@@ -92,7 +92,7 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
             if (choice.gain < o.min_gain) continue;
             alpha = choice.alpha;
         }
-        dst[kAlpha] = alpha;
+        head[kAlpha] = alpha;
         sum_alpha += alpha;
         guiding.push_back(uint32_t(c));
     }
@@ -213,8 +213,8 @@ int Guide::lookup(Vec3 p, Vec3 n_side) const {
     }
     if (c >= 0) {
         // Every guided vertex reads the header (frame, alpha) and the row ends: start loading them now.
-        const char* head = reinterpret_cast<const char*>(block(c));
-        for (size_t off = 0; off < (kHeader + size_t(atlas_.resolution)) * sizeof(float); off += 64)
+        const unsigned char* head = block(c);
+        for (size_t off = 0; off < kHeader * sizeof(float) + packed_map::row_end_bytes(atlas_.resolution); off += 64)
             __builtin_prefetch(head + off);
     }
     return c;
@@ -238,17 +238,10 @@ int Guide::first_serving(const uint32_t* idx, uint32_t n, Vec3 lo, Vec3 hi, Vec3
 }
 
 Vec3 Guide::sample(int c, Vec2 u, float* pdf) const {
-    int k;
-    const Vec3 local = SphereDistribution::sample_by_rows(cdf_row(c), row_cdf(c), atlas_.resolution, u, &k);
-    if (pdf) *pdf = texel_pdf(c, k);
+    float p;
+    const Vec3 local = packed_map::sample(map(c), atlas_.resolution, u, per_sr_, &p);
+    if (pdf) *pdf = p;
     return frame(c).to_world(local);
-}
-
-void Guide::prefetch_sample(int c, Vec2 u) const {
-    const int R = atlas_.resolution;
-    const int j = SphereDistribution::search_cdf(row_cdf(c), R, std::min(std::max(u.x, 0.0f), 0x1.fffffep-1f));
-    const char* row = reinterpret_cast<const char*>(cdf_row(c) + size_t(j) * size_t(R));
-    for (size_t off = 0; off < size_t(R) * sizeof(float); off += 64) __builtin_prefetch(row + off);
 }
 
 }  // namespace iris

@@ -13,6 +13,7 @@
 
 #include "formats/cache_atlas.h"
 #include "libcommon/math.h"
+#include "libcommon/packed_map.h"
 #include "libcommon/point_tree.h"
 #include "libcommon/spheremap.h"
 
@@ -44,6 +45,7 @@ struct GuideSummary {
     size_t usable = 0;         // with enough photons (fill-caches)
     size_t guiding = 0;        // used by the renderer: usable and, in the adaptive setting, worth it
     double mean_alpha = 1.0;   // mean BSDF share over the guiding caches
+    size_t table_bytes = 0;    // the maps as the renderer holds them (packed, with their headers)
 };
 
 class Guide {
@@ -86,23 +88,19 @@ public:
     int texel(int c, Vec3 w) const {
         return sphere_texel_of(frame(c).to_local(w), atlas_.resolution);
     }
-    float texel_pdf(int c, int k) const {
-        // As SphereDistribution::texel_pdf, reading the previous row's end from row_cdf (already loaded)
-        // rather than from the cdf line before this row's.
-        const float* cdf = cdf_row(c);
-        const int R = atlas_.resolution;
-        const float prev = k == 0 ? 0.0f : (k % R == 0 ? row_cdf(c)[k / R - 1] : cdf[k - 1]);
-        return (cdf[k] - prev) * per_sr_;
+    float texel_pdf(int c, int k) const { return packed_map::texel_pdf(map(c), atlas_.resolution, k, per_sr_); }
+    void prefetch_texel(int c, int k) const { packed_map::prefetch_row(map(c), atlas_.resolution, k / atlas_.resolution); }
+    // Starts loading the row of cache c's map that sample(c, u, ...) will search.
+    void prefetch_sample(int c, Vec2 u) const {
+        packed_map::prefetch_row(map(c), atlas_.resolution, packed_map::row_of(map(c), atlas_.resolution, u.x));
     }
-    void prefetch_texel(int c, int k) const { __builtin_prefetch(cdf_row(c) + k); }
-    // Starts loading the cdf row that sample(c, u, ...) will search.
-    void prefetch_sample(int c, Vec2 u) const;
     // Probability of BSDF sampling at a vertex that cache c serves.
-    float bsdf_fraction(int c) const { return block(c)[kAlpha]; }
+    float bsdf_fraction(int c) const { return header(c)[kAlpha]; }
     // The atlas's fields except its maps, which live in the guide's own table (below).
     const CacheAtlas& atlas() const { return atlas_; }
-    const float* cdf_row(int c) const { return block(c) + cdf_offset_; }
     const GuideSummary& summary() const { return summary_; }
+    // Bytes the guide holds per cache of an atlas of resolution R (its header and packed map).
+    static size_t bytes_per_cache(int R) { return kHeader * sizeof(float) + packed_map::bytes(R); }
     bool empty() const { return summary_.guiding == 0; }
 
 private:
@@ -141,28 +139,28 @@ private:
     Vec3 grid_origin_;
     std::vector<Slot> slots_;         // open addressing, capacity a power of two
     CacheAtlas atlas_;
-    // What a guided vertex reads of each cache, one block of stride_ floats per cache, 64-byte aligned,
-    // in huge pages where the system allows (random access to tens of MB: every lookup would otherwise
+    // What a guided vertex reads of each cache, one block of stride_ bytes per cache, 64-byte aligned,
+    // in huge pages where the system allows (random access to megabytes: every lookup would otherwise
     // also miss the TLB):
-    //   [header: the cache's frame s, t, n (9 floats), alpha, padded to 16][row_cdf: R floats, padded
-    //    to 16][cdf: N, padded to 16]
+    //   [header: the cache's frame s, t, n (9 floats), alpha, padded to 64 bytes][its map, packed
+    //    (libcommon/packed_map.h): row ends, then one byte per texel]
     // The header's line and the row ends are what every guided vertex needs (alpha 1 = not guiding),
-    // adjacent so that they load together. row_cdf[j] is the cdf at the end of row j: a search there,
-    // then in one row of the cdf, touches two cache lines where a search of the whole cdf touches five
-    // or more. Densities are derived from the cdf (the atlas's pdf is by contract the same numbers),
-    // which halves the memory read.
-    static constexpr size_t kHeader = 16, kAlpha = 9;
+    // adjacent so that they load together; a density or a sample then reads one row of codes. The
+    // packed map is a quarter of the atlas's float cdf, which is what lets the table stay in the CPU's
+    // caches (packed_map.h has the measurements).
+    static constexpr size_t kHeader = 16, kAlpha = 9;  // in floats
     struct FreeTable {
-        void operator()(float* p) const;
+        void operator()(unsigned char* p) const;
     };
-    static std::unique_ptr<float[], FreeTable> allocate_table(size_t floats);
-    std::unique_ptr<float[], FreeTable> table_;
-    size_t stride_ = 0, cdf_offset_ = 0;
-    float per_sr_ = 0;  // N / (4 pi): texel probability -> density per steradian
-    const float* block(int c) const { return table_.get() + size_t(c) * stride_; }
-    const float* row_cdf(int c) const { return block(c) + kHeader; }
+    static std::unique_ptr<unsigned char[], FreeTable> allocate_table(size_t bytes);
+    std::unique_ptr<unsigned char[], FreeTable> table_;
+    size_t stride_ = 0;  // bytes
+    float per_sr_ = 0;   // N / (4 pi): texel probability -> density per steradian
+    const unsigned char* block(int c) const { return table_.get() + size_t(c) * stride_; }
+    const float* header(int c) const { return reinterpret_cast<const float*>(block(c)); }
+    const unsigned char* map(int c) const { return block(c) + kHeader * sizeof(float); }
     Frame frame(int c) const {
-        const float* h = block(c);
+        const float* h = header(c);
         Frame f;
         f.s = {h[0], h[1], h[2]};
         f.t = {h[3], h[4], h[5]};

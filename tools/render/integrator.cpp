@@ -90,8 +90,8 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // "outside" (sees none of it) would otherwise be decided by rounding.
         const Vec3 ref = offset_ray_origin(hit.p, hit.ng, wi_world, hit.magnitude);
 
-        // A guided vertex costs mostly memory latency, not arithmetic: deep vertices land anywhere in the
-        // scene, so p's grid cell and the cache's cdf rows are rarely in the CPU's caches. The lookup
+        // About half of a guided vertex's extra cost is memory latency (perf): deep vertices land anywhere
+        // in the scene, so p's grid cell and the cache's rows are rarely in the CPU's caches. The lookup
         // starts loading the cache's header and row ends, NEE's BSDF evaluation runs meanwhile, and the
         // continuation's row search then starts loading its row just before the shadow ray is traced.
         const bool guided_here = guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf);
