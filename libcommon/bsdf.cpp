@@ -493,6 +493,8 @@ bool bsdf_sample(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s, Transp
 
 bool bsdf_is_delta(const Bsdf& b) { return b.type == BsdfType::Dielectric || b.type == BsdfType::Conductor; }
 
+bool bsdf_has_delta_lobe(const Bsdf& b) { return bsdf_is_delta(b) || b.type == BsdfType::Plastic; }
+
 float fresnel_dielectric(float cos_i, float eta, float* cos_t) {
     // Mitsuba's fresnelDielectricExt. cos_i > 0: arriving from outside (relative IOR eta);
     // cos_i <= 0: from inside (relative IOR 1/eta).

@@ -87,6 +87,9 @@ float bsdf_guidable_pdf(const Bsdf& b, Vec3 wi, Vec3 wo);
 bool bsdf_is_delta(const Bsdf& b);
 // True if some lobe is smooth enough that MIS/NEE at this vertex makes sense (has a non-delta part).
 inline bool bsdf_has_nondelta(const Bsdf& b) { return !bsdf_is_delta(b); }
+// True if some lobe is a Dirac lobe (dielectric, conductor, the smooth coat of plastic): the only
+// surfaces where a light path can take a specular bounce (a caustic).
+bool bsdf_has_delta_lobe(const Bsdf& b);
 
 // Fresnel reflectance of a dielectric interface for unpolarised light. cos_i is signed (negative:
 // arriving from inside); eta = interior/exterior IOR. Returns R and sets *cos_t to the signed cosine

@@ -31,7 +31,8 @@ COUNT ?= 4000
 STRIDE ?= 8
 # No caches at all (an unguided render) when less than this share of the photon power arrives through
 # specular chains: on the seed scenes without any (the plain box, the plates) guiding did not pay for
-# its preprocessing. 0 = always guide.
+# its preprocessing. 0 = always guide. Where no surface has a specular lobe (the plain box) the share is
+# 0 without tracing, and trace-photons traces nothing.
 MIN_CAUSTIC ?= 0.005
 # fill-caches
 K ?= 1000
@@ -56,7 +57,8 @@ REF := $(REF_DIR)/$(NAME)-$(REF_SPP)spp.exr
 COMMON := --seed $(SEED) -t $(THREADS) $(QUIET)
 BUDGET := $(if $(filter 0,$(SPP)),--time $(TIME),--spp $(SPP))
 
-CMD_photons = $(BIN)/trace-photons $(SCENE) -o $(OUT)/photons.h5 --paths $(PATHS) --max-depth $(PHOTON_DEPTH) $(COMMON)
+CMD_photons = $(BIN)/trace-photons $(SCENE) -o $(OUT)/photons.h5 --paths $(PATHS) --max-depth $(PHOTON_DEPTH) \
+  --min-caustic-share $(MIN_CAUSTIC) $(COMMON)
 CMD_caches = $(BIN)/place-caches $(SCENE) --photons $(OUT)/photons.h5 -o $(OUT)/caches.h5 --count $(COUNT) \
   --camera-stride $(STRIDE) --min-caustic-share $(MIN_CAUSTIC) $(COMMON)
 CMD_atlas = $(BIN)/fill-caches $(OUT)/caches.h5 --photons $(OUT)/photons.h5 -o $(OUT)/atlas.h5 --k $(K) \

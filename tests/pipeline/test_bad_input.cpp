@@ -276,6 +276,7 @@ const BadInputCase kCases[] = {
 
     // ---- trace-photons ----
     {"TracePhotonsZeroPaths", "trace-photons", "--paths 0", "{in}/valid.xml --paths 0 -o {out}", "--paths"},
+    {"TracePhotonsCausticShareAboveOne", "trace-photons", "--min-caustic-share 2", "{in}/valid.xml --min-caustic-share 2 -o {out}", "--min-caustic-share"},
     {"TracePhotonsNegativePaths", "trace-photons", "--paths -5 (once wrapped to 2^64-5)", "{in}/valid.xml --paths -5 -o {out}", "--paths"},
     {"TracePhotonsTextPaths", "trace-photons", "--paths abc", "{in}/valid.xml --paths abc -o {out}", "--paths"},
     {"TracePhotonsZeroDepth", "trace-photons", "--max-depth 0", "{in}/valid.xml --max-depth 0 -o {out}", "--max-depth"},

@@ -148,4 +148,34 @@ TEST_F(GuidingCli, NoCachesWithoutLightThroughSpecularChains) {
     EXPECT_GT(read_cache_points(d.file("cc.h5")).caches.size(), 0u);
 }
 
+// With the same threshold, trace-photons traces nothing where no surface has a Dirac lobe (the share is
+// 0 whatever the photons): an empty photon map recording share 0, said even with -q, from which the
+// rest of the pipeline renders unguided. A scene with a specular surface is traced as without it.
+TEST_F(GuidingCli, NoPhotonsWithoutSpecularSurfaces) {
+    TempDir d;
+    const std::string diffuse = data_file("render/sphere_light_over_plane.xml");
+    auto run = [](const std::string& cmd) {
+        ToolResult r = run_command(cmd);
+        EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
+        return r;
+    };
+    ToolResult r = run(tool("trace-photons") + " " + diffuse + " -q --paths 3000 --min-caustic-share 0.005 -o " + d.file("p.h5"));
+    EXPECT_NE(r.output.find("has a specular (Dirac) lobe, so no light arrives through specular chains"), std::string::npos)
+        << r.output;
+    const PhotonMapFile pm = read_photon_map(d.file("p.h5"), "");
+    EXPECT_EQ(pm.photons.size(), 0u);
+    EXPECT_EQ(pm.header.provenance.parameters.at("caustic_share"), 0.0);
+    EXPECT_EQ(pm.header.provenance.parameters.at("paths"), 0.0);
+    run(tool("place-caches") + " " + diffuse + " --photons " + d.file("p.h5") + " -q --count 50 --min-caustic-share 0.005 -o " +
+        d.file("c.h5"));
+    EXPECT_EQ(read_cache_points(d.file("c.h5")).caches.size(), 0u);
+    run(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + d.file("p.h5") + " -q -o " + d.file("a.h5"));
+    run(tool("render") + " " + diffuse + " -q --spp 4 --mode auto --atlas " + d.file("a.h5") + " -o " + d.file("g.exr"));
+    EXPECT_EQ(read_exr(d.file("g.exr")).metadata.at("iris:mode"), "nee+bsdf");
+
+    r = run(tool("trace-photons") + " " + scene() + " -q --paths 2000 --min-caustic-share 0.005 -o " + d.file("pc.h5"));
+    EXPECT_EQ(r.output, "");
+    EXPECT_GT(read_photon_map(d.file("pc.h5"), "").photons.size(), 0u);
+}
+
 }  // namespace

@@ -27,6 +27,11 @@ int main(int argc, char** argv) {
     app.add_option("--cutoff", opt.cutoff, "Stop a path below this fraction of its emitted power");
     app.add_option("-t,--threads", opt.threads, "Worker threads (default: all cores)");
     app.add_option("--seed", opt.seed, "Random seed (same seed => same file, for any thread count)");
+    double min_caustic_share = 0;
+    app.add_option("--min-caustic-share", min_caustic_share,
+                   "place-caches' threshold (the pipeline passes the same): when it is > 0 and no surface of the "
+                   "scene has a specular (Dirac) lobe, the share is 0 whatever the photons, so none is traced "
+                   "and the photon map is empty");
     app.add_option("-D,--define", defines, "Scene parameter name=value");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     if (int rc = iris::parse_command_line(app, argc, argv, "trace-photons"); rc >= 0) return rc;
@@ -34,12 +39,17 @@ int main(int argc, char** argv) {
         if (paths <= 0) throw std::runtime_error("--paths must be positive, got " + std::to_string(paths));
         opt.paths = uint64_t(paths);
         if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
+        if (!(min_caustic_share >= 0 && min_caustic_share <= 1))
+            throw std::runtime_error("--min-caustic-share must be in [0, 1]");
         iris::check_output_path(output);
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
         iris::Scene scene = iris::load_scene(scene_path, lo);
         iris::PhotonStats stats;
-        iris::PhotonMap map = iris::trace_photons(scene, opt, &stats);
+        // A scene without caustics skips guiding (place-caches); tracing its photons would only cost time.
+        const bool skip = min_caustic_share > 0 && !iris::has_specular_surfaces(scene);
+        iris::PhotonMap map = skip ? iris::PhotonMap{} : iris::trace_photons(scene, opt, &stats);
+        if (skip) opt.paths = 0;
         iris::Provenance prov;
         prov.tool = "trace-photons";
         prov.tool_version = IRIS_VERSION;
@@ -50,9 +60,14 @@ int main(int argc, char** argv) {
                            {"rr_depth", double(opt.rr_depth)}, {"cutoff", double(opt.cutoff)},
                            {"seconds", stats.seconds},       {"nonfinite_discarded", double(stats.nonfinite)},
                            // So that place-caches can decide to skip a scene from the header alone.
-                           {"caustic_share", iris::caustic_power_share(map)}};
+                           {"caustic_share", iris::caustic_power_share(map)},
+                           {"min_caustic_share", min_caustic_share}};
         iris::write_photon_map(output, map, scene.fingerprint, prov);
-        if (!opt.quiet)
+        if (skip)  // a decision, reported even with -q (as place-caches reports its own)
+            std::fprintf(stderr, "trace-photons: no surface of %s has a specular (Dirac) lobe, so no light arrives "
+                         "through specular chains and place-caches skips guiding (--min-caustic-share %g); "
+                         "wrote an empty photon map %s\n", scene_path.c_str(), min_caustic_share, output.c_str());
+        else if (!opt.quiet)
             std::fprintf(stderr, "trace-photons: wrote %s (%zu photons from %llu paths, %.2f per path, %.2f s%s)\n",
                          output.c_str(), map.size(), (unsigned long long)opt.paths, double(map.size()) / opt.paths,
                          stats.seconds,
