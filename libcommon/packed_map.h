@@ -2,15 +2,16 @@
 // texel, log-spaced, and a 16-bit cdf over the map's rows. At R = 32 it takes 1088 bytes where the
 // atlas's float cdf takes 4096, so the renderer holds a quarter of the memory per cache (4.6 instead of
 // 17 MB for the 4000 caches of the glass spheres). Measured on the 2-core VM (every vertex guided, 5
-// interleaved renders each): time per sample unchanged (2.71 s against 2.70 s), noise per sample
+// interleaved renders each): time per sample unchanged (2.71 s against 2.72 s), noise per sample
 // unchanged (relMSE 0.0590 both); a guided vertex's extra cost is half arithmetic, and 4.6 MB still
 // misses the few MB of last-level cache such a machine gives one process.
 //
 // The packed map is itself an exact distribution: sampling and the density read the same numbers, so
 // the density reported for a sample is the one it was drawn with and MIS stays unbiased. It differs
 // from the atlas's density only by the quantisation (a code is within 2^(1/32), 2.2 %, of its
-// texel's share of the cache's brightest texel; a row's probability within about 1/65535 absolute):
-// that changes how well the map fits the light, not what the estimate converges to.
+// texel's share of the cache's brightest texel; a row's probability within 1/65535 absolute, the
+// largest row's within R/65535): that changes how well the map fits the light, not what the estimate
+// converges to.
 //
 // Layout for resolution R, in bytes from a 64-byte aligned start:
 //   [row_end: uint16[R], padded to 64][code: uint8[R * R], row-major as the atlas (k = j R + i), padded to 64]

@@ -392,8 +392,9 @@ def cmd_report(a):
             if r.get("auto_caches") == 0:
                 fixed_prep = next((x["prep"] for x in rows if x["mode"] not in ("auto", "nee+bsdf")), None)
                 lines[-1] += (" The default pipeline placed no caches here (less than MIN_CAUSTIC of the photon "
-                              "power arrives through specular chains): `auto`'s preprocessing is the photon pass "
-                              "alone (%.2f s) and it rendered unguided" % r["prep"])
+                              "power arrives through specular chains; where no surface has a specular lobe "
+                              "trace-photons traces nothing): `auto`'s preprocessing took %.2f s to decide that "
+                              "and it rendered unguided" % r["prep"])
                 if fixed_prep is None:
                     lines[-1] += "."
                 else:
