@@ -37,6 +37,12 @@ protected:
     }
     static std::string scene() { return data_file("guiding/caustic_box.xml"); }
     static std::string in(const std::string& name) { return dir_->file(name); }
+    // Runs a tool command that must succeed; its result, for the output.
+    static ToolResult run_ok(const std::string& cmd) {
+        ToolResult r = run_command(cmd);
+        EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
+        return r;
+    }
 
     static TempDir* dir_;
 };
@@ -119,30 +125,25 @@ TEST_F(GuidingCli, PlaceAndFillCachesAreDeterministicForAnyThreadCount) {
 TEST_F(GuidingCli, NoCachesWithoutLightThroughSpecularChains) {
     TempDir d;
     const std::string diffuse = data_file("render/sphere_light_over_plane.xml");
-    auto run = [](const std::string& cmd) {
-        ToolResult r = run_command(cmd);
-        EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
-        return r;
-    };
-    run(tool("trace-photons") + " " + diffuse + " -q --paths 3000 --seed 5 -o " + d.file("p.h5"));
+    run_ok(tool("trace-photons") + " " + diffuse + " -q --paths 3000 --seed 5 -o " + d.file("p.h5"));
     // trace-photons records the share (place-caches then decides from the header alone): none here,
     // some on the caustic box.
     EXPECT_EQ(read_photon_map_header(d.file("p.h5")).provenance.parameters.at("caustic_share"), 0.0);
     EXPECT_GT(read_photon_map_header(in("photons.h5")).provenance.parameters.at("caustic_share"), 0.0);
-    ToolResult r = run(tool("place-caches") + " " + diffuse + " --photons " + d.file("p.h5") +
+    ToolResult r = run_ok(tool("place-caches") + " " + diffuse + " --photons " + d.file("p.h5") +
                        " -q --count 50 --min-caustic-share 0.005 -o " + d.file("c.h5"));
     EXPECT_NE(r.output.find("no caches: 0.00 % of the photon power arrives through specular chains"), std::string::npos)
         << r.output;
     EXPECT_EQ(read_cache_points(d.file("c.h5")).caches.size(), 0u);
-    run(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + d.file("p.h5") + " -q -o " + d.file("a.h5"));
+    run_ok(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + d.file("p.h5") + " -q -o " + d.file("a.h5"));
     EXPECT_EQ(read_cache_atlas(d.file("a.h5")).atlas.size(), 0u);
-    run(tool("render") + " " + diffuse + " -q --spp 4 --mode auto --atlas " + d.file("a.h5") + " -o " + d.file("g.exr"));
+    run_ok(tool("render") + " " + diffuse + " -q --spp 4 --mode auto --atlas " + d.file("a.h5") + " -o " + d.file("g.exr"));
     const Image img = read_exr(d.file("g.exr"));
     EXPECT_EQ(img.metadata.at("iris:mode"), "nee+bsdf");
     EXPECT_EQ(img.metadata.at("iris:auto_guide"), "unguided: no cache in the atlas guides");
 
     // The same share on the caustic box: its glass sphere carries light, caches are placed.
-    r = run(tool("place-caches") + " " + scene() + " --photons " + in("photons.h5") +
+    r = run_ok(tool("place-caches") + " " + scene() + " --photons " + in("photons.h5") +
             " -q --count 50 --min-caustic-share 0.005 -o " + d.file("cc.h5"));
     EXPECT_EQ(r.output, "");
     EXPECT_GT(read_cache_points(d.file("cc.h5")).caches.size(), 0u);
@@ -154,26 +155,21 @@ TEST_F(GuidingCli, NoCachesWithoutLightThroughSpecularChains) {
 TEST_F(GuidingCli, NoPhotonsWithoutSpecularSurfaces) {
     TempDir d;
     const std::string diffuse = data_file("render/sphere_light_over_plane.xml");
-    auto run = [](const std::string& cmd) {
-        ToolResult r = run_command(cmd);
-        EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
-        return r;
-    };
-    ToolResult r = run(tool("trace-photons") + " " + diffuse + " -q --paths 3000 --min-caustic-share 0.005 -o " + d.file("p.h5"));
+    ToolResult r = run_ok(tool("trace-photons") + " " + diffuse + " -q --paths 3000 --min-caustic-share 0.005 -o " + d.file("p.h5"));
     EXPECT_NE(r.output.find("has a specular (Dirac) lobe, so no light arrives through specular chains"), std::string::npos)
         << r.output;
     const PhotonMapFile pm = read_photon_map(d.file("p.h5"), "");
     EXPECT_EQ(pm.photons.size(), 0u);
     EXPECT_EQ(pm.header.provenance.parameters.at("caustic_share"), 0.0);
     EXPECT_EQ(pm.header.provenance.parameters.at("paths"), 0.0);
-    run(tool("place-caches") + " " + diffuse + " --photons " + d.file("p.h5") + " -q --count 50 --min-caustic-share 0.005 -o " +
+    run_ok(tool("place-caches") + " " + diffuse + " --photons " + d.file("p.h5") + " -q --count 50 --min-caustic-share 0.005 -o " +
         d.file("c.h5"));
     EXPECT_EQ(read_cache_points(d.file("c.h5")).caches.size(), 0u);
-    run(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + d.file("p.h5") + " -q -o " + d.file("a.h5"));
-    run(tool("render") + " " + diffuse + " -q --spp 4 --mode auto --atlas " + d.file("a.h5") + " -o " + d.file("g.exr"));
+    run_ok(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + d.file("p.h5") + " -q -o " + d.file("a.h5"));
+    run_ok(tool("render") + " " + diffuse + " -q --spp 4 --mode auto --atlas " + d.file("a.h5") + " -o " + d.file("g.exr"));
     EXPECT_EQ(read_exr(d.file("g.exr")).metadata.at("iris:mode"), "nee+bsdf");
 
-    r = run(tool("trace-photons") + " " + scene() + " -q --paths 2000 --min-caustic-share 0.005 -o " + d.file("pc.h5"));
+    r = run_ok(tool("trace-photons") + " " + scene() + " -q --paths 2000 --min-caustic-share 0.005 -o " + d.file("pc.h5"));
     EXPECT_EQ(r.output, "");
     EXPECT_GT(read_photon_map(d.file("pc.h5"), "").photons.size(), 0u);
 }
