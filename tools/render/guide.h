@@ -146,8 +146,8 @@ private:
     //    (libcommon/packed_map.h): row ends, then one byte per texel]
     // The header's line and the row ends are what every guided vertex needs (alpha 1 = not guiding),
     // adjacent so that they load together; a density or a sample then reads one row of codes. The
-    // packed map is a quarter of the atlas's float cdf, which is what lets the table stay in the CPU's
-    // caches (packed_map.h has the measurements).
+    // packed map is a quarter of the atlas's float cdf (the memory, not the speed, is what that buys:
+    // packed_map.h has the measurements).
     static constexpr size_t kHeader = 16, kAlpha = 9;  // in floats
     struct FreeTable {
         void operator()(unsigned char* p) const;
