@@ -11,17 +11,13 @@
 # Writes docs/benchmarks/cost.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bench-lib.sh
 spp=${1:-16}
 scale=${2:-0.5}
-seeds=${IRIS_SHARED_DIR:-../shared}/seed-scenes
-bin=build/bin
 out=${IRIS_OUT:-out/bench}/cost
 report=docs/benchmarks/cost.md
 mkdir -p "$out" docs/benchmarks
 scenes=(cbox_kugeln.xml cbox_spiegelboxen.xml veach_bidir/bidir.xml metal_ring/ring.xml)
-median() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
-# Wall seconds of the render itself, as render reports it in the image's metadata.
-seconds() { "$bin/compare-images" "$1" --metadata | awk '/^iris:seconds /{print $2}'; }
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a / b}'; }
 {
   echo "## Per-sample cost of guided rendering, decomposed"
@@ -37,7 +33,7 @@ ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a / b}'; }
 for s in "${scenes[@]}"; do
   name=$(basename "${s%.xml}")
   scene=$seeds/$s
-  res=$(python3 -c "import sys; sys.path.insert(0, 'scripts'); import bench; print('%dx%d' % bench.scaled_resolution(sys.argv[1], float(sys.argv[2])))" "$scene" "$scale")
+  res=$(scaled_resolution "$scene" "$scale")
   make -s -f pipelines/guided.mk SCENE="$scene" OUT="$out/$name" BIN="$bin" MIN_CAUSTIC=0 atlas
   atlas=$out/$name/atlas.h5
   declare -A t=()
@@ -51,7 +47,7 @@ for s in "${scenes[@]}"; do
         every) args=(--mode nee+bsdf+cache --atlas "$atlas" --guide-vertices 0 --rr-threshold 0.1) ;;
       esac
       "$bin/render" "$scene" -o "$out/$name/$k.exr" --spp "$spp" --resolution "$res" --seed "$rep" -q "${args[@]}"
-      t[$k]+="$(seconds "$out/$name/$k.exr") "
+      t[$k]+="$(render_seconds "$out/$name/$k.exr") "
     done
   done
   for k in "${settings[@]}"; do t[$k]=$(echo ${t[$k]} | tr ' ' '\n' | median); done

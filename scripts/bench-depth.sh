@@ -10,9 +10,8 @@
 # references: make -f pipelines/bench.mk references). Writes docs/benchmarks/depth.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bench-lib.sh
 spp=${1:-64}
-seeds=${IRIS_SHARED_DIR:-../shared}/seed-scenes
-bin=build/bin
 out=${IRIS_OUT:-out/bench}/depth
 report=docs/benchmarks/depth.md
 mkdir -p "$out" docs/benchmarks
@@ -38,7 +37,7 @@ for s in cbox_kugeln.xml cbox_spiegelboxen.xml; do
   name=$(basename "${s%.xml}")
   scene=$seeds/$s
   ref=.cache/references/$name-s0.5-2048spp.exr
-  res=$(python3 -c "import sys; sys.path.insert(0, 'scripts'); import bench; print('%dx%d' % bench.scaled_resolution(sys.argv[1], 0.5))" "$scene")
+  res=$(scaled_resolution "$scene" 0.5)
   make -s -f pipelines/guided.mk SCENE="$scene" OUT="$out/$name" BIN="$bin" MIN_CAUSTIC=0 atlas >/dev/null 2>&1
   base=""
   for c in "${settings[@]}"; do
@@ -50,9 +49,8 @@ for s in cbox_kugeln.xml cbox_spiegelboxen.xml; do
     for seed in 3 4; do
       img=$out/$name-seed$seed.exr
       "$bin/render" "$scene" -o "$img" --spp "$spp" --resolution "$res" --seed $seed -q "${args[@]}" 2>/dev/null
-      secs=$("$bin/compare-images" "$img" --metadata | awk '/^iris:seconds /{print $2}')
-      err=$("$bin/compare-images" "$img" "$ref" --json |
-        python3 -c "import json,sys; d=json.load(sys.stdin); print(d['relmse'] - d['relmse_reference_noise'])")
+      secs=$(render_seconds "$img")
+      read -r err _ < <(relmse_less_reference_noise "$img" "$ref")
       e+="${e:+ / }$(printf %.4f "$err")"; t+="${t:+ / }$(printf %.2f "$secs")"
       work=$(awk -v w="$work" -v a="$err" -v b="$secs" 'BEGIN{print w + a * b}')
     done

@@ -7,10 +7,9 @@
 # Writes docs/benchmarks/guiding.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bench-lib.sh
 time_budget=${1:-60}
 ref_spp=${2:-1024}
-seeds=${IRIS_SHARED_DIR:-../shared}/seed-scenes
-bin=build/bin
 report=docs/benchmarks/guiding.md
 mkdir -p docs/benchmarks
 scenes=(cbox_kugeln.xml veach_bidir/bidir.xml)
@@ -26,7 +25,6 @@ scenes=(cbox_kugeln.xml veach_bidir/bidir.xml)
   echo "| scene | photons (s) | caches (s) | atlas (s) | preprocessing (s) | atlas maps (MB) | atlas file (MB) | s/spp unguided | s/spp guided | cost ratio | relMSE unguided | relMSE guided | unguided/guided |"
   echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 } > "$report"
-median() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
 for s in "${scenes[@]}"; do
   name=$(basename "$s" .xml)
   out=out/bench-guiding/$name

@@ -12,10 +12,9 @@
 # pipelines/bench.mk references). Writes docs/benchmarks/resolution.md.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bench-lib.sh
 spp=${1:-64}
 resolutions=${2:-16 32}
-seeds=${IRIS_SHARED_DIR:-../shared}/seed-scenes
-bin=build/bin
 out=${IRIS_OUT:-out/bench}/resolution
 report=docs/benchmarks/resolution.md
 mkdir -p "$out" docs/benchmarks
@@ -41,7 +40,7 @@ for c in "${cases[@]}"; do
   name=$(basename "${s%.xml}")
   scene=$seeds/$s
   ref=.cache/references/$name-s0.5-2048spp.exr
-  res=$(python3 -c "import sys; sys.path.insert(0, 'scripts'); import bench; print('%dx%d' % bench.scaled_resolution(sys.argv[1], 0.5))" "$scene")
+  res=$(scaled_resolution "$scene" 0.5)
   base=""
   for r in unguided $resolutions $extra; do
     if [ "$r" = unguided ]; then
@@ -55,9 +54,8 @@ for c in "${cases[@]}"; do
     for seed in 3 4; do
       img=$out/$name-$r-$seed.exr
       "$bin/render" "$scene" -o "$img" --spp "$spp" --resolution "$res" --seed $seed -q "${args[@]}" 2>/dev/null
-      secs=$("$bin/compare-images" "$img" --metadata | awk '/^iris:seconds /{print $2}')
-      read -r err trim < <("$bin/compare-images" "$img" "$ref" --json |
-        python3 -c "import json,sys; d=json.load(sys.stdin); print(d['relmse'] - d['relmse_reference_noise'], d['relmse_trimmed'])")
+      secs=$(render_seconds "$img")
+      read -r err trim < <(relmse_less_reference_noise "$img" "$ref")
       e+="${e:+ / }$(printf %.4f "$err")"; m+="${m:+ / }$(printf %.4f "$trim")"; t+="${t:+ / }$(printf %.2f "$secs")"
       work=$(awk -v w="$work" -v a="$err" -v b="$secs" 'BEGIN{print w + a * b}')
     done

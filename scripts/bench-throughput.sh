@@ -6,9 +6,8 @@
 # Usage: scripts/bench-throughput.sh [SPP]   (default 4; needs a Release build in build/)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source scripts/bench-lib.sh
 spp=${1:-4}
-seeds=${IRIS_SHARED_DIR:-../shared}/seed-scenes
-bin=build/bin
 out=${IRIS_OUT:-out/bench}
 mkdir -p "$out" docs/benchmarks
 scenes=(cbox_kugeln.xml cbox_nur_box.xml cbox_spiegelboxen.xml cbox_diffuse_boxes.xml veach_bidir/bidir.xml
@@ -27,7 +26,6 @@ report=docs/benchmarks/throughput.md
   echo "| scene | resolution | Mpaths/s | Mrays/s (render) | Mrays/s (raw Embree) | ratio |"
   echo "|---|---|---|---|---|---|"
 } > "$report"
-median() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }
 for s in "${scenes[@]}"; do
   paths=(); rays=()
   for i in 1 2 3; do
