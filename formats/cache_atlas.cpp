@@ -8,19 +8,20 @@ namespace iris {
 
 namespace {
 
-// Checks row `i` of the maps. Sums run in double so that the tolerances measure the file's rounding,
-// not this check's.
+// Checks row `i` of the maps (of the pdf alone where the atlas was read without its cdf). Sums run in
+// double so that the tolerances measure the file's rounding, not this check's.
 std::string check_map_row(const CacheAtlas& a, size_t i) {
     const size_t n_tex = a.texels();
+    const bool has_cdf = !a.cdf.empty();
     const float* pdf = a.pdf_row(i);
-    const float* cdf = a.cdf_row(i);
+    const float* cdf = has_cdf ? a.cdf_row(i) : nullptr;
     const std::string where = " at cache " + std::to_string(i) + ", texel ";
     bool all_zero = true;
     for (size_t j = 0; j < n_tex; ++j) {
         if (!std::isfinite(pdf[j])) return "dataset 'pdf' has a non-finite value" + where + std::to_string(j);
         if (pdf[j] < 0) return "dataset 'pdf' has a negative value" + where + std::to_string(j);
-        if (!std::isfinite(cdf[j])) return "dataset 'cdf' has a non-finite value" + where + std::to_string(j);
-        all_zero = all_zero && pdf[j] == 0 && cdf[j] == 0;
+        if (has_cdf && !std::isfinite(cdf[j])) return "dataset 'cdf' has a non-finite value" + where + std::to_string(j);
+        all_zero = all_zero && pdf[j] == 0 && (!has_cdf || cdf[j] == 0);
     }
     // An unusable cache may carry no map at all; the renderer never samples it.
     if (all_zero) {
@@ -28,6 +29,15 @@ std::string check_map_row(const CacheAtlas& a, size_t i) {
         return {};
     }
     const double texel_sr = 4.0 * std::numbers::pi / double(n_tex);  // solid angle of every texel, sr
+    if (!has_cdf) {
+        double sum = 0;
+        for (size_t j = 0; j < n_tex; ++j) sum += double(pdf[j]) * texel_sr;
+        // What the cdf checks imply for a row's sum: within 1e-3 of the running sum, which ends within 1e-4 of 1.
+        if (std::abs(sum - 1.0) > 1.1e-3)
+            return "dataset 'pdf' of cache " + std::to_string(i) + " sums to " + std::to_string(sum) +
+                   " (times 4*pi/N), not 1";
+        return {};
+    }
     double running = 0, previous = 0;
     for (size_t j = 0; j < n_tex; ++j) {
         if (cdf[j] < previous)
@@ -47,7 +57,7 @@ std::string check_map_row(const CacheAtlas& a, size_t i) {
 
 }  // namespace
 
-std::string validate_cache_atlas(const CacheAtlas& a) {
+std::string validate_cache_atlas(const CacheAtlas& a, AtlasMaps maps) {
     if (a.resolution < 1 || a.resolution > kCacheAtlasMaxResolution)
         return "attribute 'resolution' is " + std::to_string(a.resolution) + " (must be 1.." +
                std::to_string(kCacheAtlasMaxResolution) + ")";
@@ -56,7 +66,7 @@ std::string validate_cache_atlas(const CacheAtlas& a) {
                               std::pair{"radius", a.radius.size()}, std::pair{"usable", a.usable.size()}})
         if (std::string e = h5::check_rows(name, rows, "position", n); !e.empty()) return e;
     for (auto [name, size] : {std::pair{"pdf", a.pdf.size()}, std::pair{"cdf", a.cdf.size()}})
-        if (size != n * n_tex)
+        if (size != n * n_tex && !(maps == AtlasMaps::PdfOnly && name == std::string("cdf") && size == 0))
             return "dataset '" + std::string(name) + "' has " + std::to_string(size) + " values, expected " +
                    std::to_string(n) + " caches x " + std::to_string(n_tex) + " texels (resolution " +
                    std::to_string(a.resolution) + ")";
@@ -109,7 +119,7 @@ void write_cache_atlas(const std::string& path, const CacheAtlas& atlas, const s
     w.commit();
 }
 
-CacheAtlasFile read_cache_atlas(const std::string& path, const std::string& expected_fingerprint) {
+CacheAtlasFile read_cache_atlas(const std::string& path, const std::string& expected_fingerprint, AtlasMaps maps) {
     h5::Reader r(path, kCacheAtlasFormat, kCacheAtlasVersion, expected_fingerprint);
     CacheAtlasFile f;
     f.header = r.header();
@@ -132,7 +142,7 @@ CacheAtlasFile read_cache_atlas(const std::string& path, const std::string& expe
     a.position = r.vec3s("position");
     a.normal = r.vec3s("normal");
     a.pdf = r.floats("pdf", a.texels());
-    a.cdf = r.floats("cdf", a.texels());
+    if (maps == AtlasMaps::PdfAndCdf) a.cdf = r.floats("cdf", a.texels());
     a.photon_count = r.u32s("photon_count");
     a.radius = r.floats("radius", 0);
     a.usable = r.u8s("usable");
@@ -143,8 +153,9 @@ CacheAtlasFile read_cache_atlas(const std::string& path, const std::string& expe
     // pdf/cdf are stored (n, N): their row counts are compared here, the values in validate.
     const size_t n_tex = a.texels();
     for (auto [name, size] : {std::pair{"pdf", a.pdf.size()}, std::pair{"cdf", a.cdf.size()}})
-        if (std::string e = h5::check_rows(name, size / n_tex, "position", a.size()); !e.empty()) r.fail(e);
-    if (std::string e = validate_cache_atlas(a); !e.empty()) r.fail(e);
+        if (name == std::string("pdf") || maps == AtlasMaps::PdfAndCdf)
+            if (std::string e = h5::check_rows(name, size / n_tex, "position", a.size()); !e.empty()) r.fail(e);
+    if (std::string e = validate_cache_atlas(a, maps); !e.empty()) r.fail(e);
     return f;
 }
 

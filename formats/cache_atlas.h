@@ -62,17 +62,25 @@ struct CacheAtlasFile {
     CacheAtlas atlas;
 };
 
+// Which maps a reader loads. The renderer samples from its own packed form of the pdf
+// (libcommon/packed_map.h), so it skips the cdf: half the maps' bytes to decompress and check.
+enum class AtlasMaps { PdfAndCdf, PdfOnly };
+
 // "" if `atlas` satisfies the contract, else what is wrong (naming the dataset, cache and texel):
 // shapes against resolution, finite values, pdf >= 0, cdf non-decreasing, matching the running sum of
 // pdf * 4*pi/N within 1e-3 and ending at 1 within 1e-4 (rows of unusable caches may be all zeros).
-std::string validate_cache_atlas(const CacheAtlas& atlas);
+// With PdfOnly an empty cdf is accepted, and each pdf row must then itself sum to 1 (times 4*pi/N)
+// within 1.1e-3, as the cdf checks imply.
+std::string validate_cache_atlas(const CacheAtlas& atlas, AtlasMaps maps = AtlasMaps::PdfAndCdf);
 
 // Writes atomically; the numeric stage parameters go in provenance.parameters.
 void write_cache_atlas(const std::string& path, const CacheAtlas& atlas, const std::string& scene_fingerprint,
                        const Provenance& provenance);
 
-// Reads and validates the whole file; expected_fingerprint "" skips the scene check.
-CacheAtlasFile read_cache_atlas(const std::string& path, const std::string& expected_fingerprint = {});
+// Reads and validates the file (with PdfOnly all but the cdf, left empty); expected_fingerprint ""
+// skips the scene check.
+CacheAtlasFile read_cache_atlas(const std::string& path, const std::string& expected_fingerprint = {},
+                                AtlasMaps maps = AtlasMaps::PdfAndCdf);
 
 // Only the root attributes: no map is loaded.
 StageHeader read_cache_atlas_header(const std::string& path, const std::string& expected_fingerprint = {});

@@ -826,6 +826,44 @@ TEST(StageFileCacheAtlas, RefusesCdfNotEndingAtOne) {
     expect_contains(e, "dataset 'cdf' of cache 1 ends at 0.99");
 }
 
+// The renderer's read (AtlasMaps::PdfOnly) loads everything but the cdf, which it never uses, and then
+// checks that each pdf row itself sums to one.
+TEST(StageFileCacheAtlas, PdfOnlyReadSkipsTheCdfAndChecksThePdfSums) {
+    TempDir dir;
+    std::string p = dir.file("atlas.h5");
+    CacheAtlas a = make_atlas(5, 8);
+    write_cache_atlas(p, a, kFingerprint, make_provenance());
+    CacheAtlas r = read_cache_atlas(p, kFingerprint, AtlasMaps::PdfOnly).atlas;
+    EXPECT_TRUE(r.cdf.empty());
+    EXPECT_EQ(r.pdf, a.pdf);
+    EXPECT_EQ(r.usable, a.usable);
+    EXPECT_EQ(r.radius, a.radius);
+    // A cdf the renderer does not read cannot stop it; the full read still refuses it.
+    edit_file(p, [](hid_t f) {
+        std::vector<hsize_t> dims;
+        std::vector<float> v = read_floats(f, "cdf", &dims);
+        v[dims[1] + 3] = -1;
+        write_floats(f, "cdf", v);
+    });
+    EXPECT_EQ(read_cache_atlas(p, kFingerprint, AtlasMaps::PdfOnly).atlas.pdf, a.pdf);
+    expect_contains(error_of([&] { read_cache_atlas(p, kFingerprint); }), "dataset 'cdf' decreases at cache 1");
+    // A pdf row that sums to 0.99 is refused (by the full read too, through the cdf check).
+    edit_file(p, [](hid_t f) {
+        std::vector<hsize_t> dims;
+        std::vector<float> v = read_floats(f, "pdf", &dims);
+        for (size_t j = 0; j < dims[1]; ++j) v[3 * dims[1] + j] *= 0.99f;
+        write_floats(f, "pdf", v);
+    });
+    std::string e = error_of([&] { read_cache_atlas(p, kFingerprint, AtlasMaps::PdfOnly); });
+    expect_names_file(e, p);
+    expect_contains(e, "dataset 'pdf' of cache 3 sums to 0.99");
+    // Without PdfOnly an empty cdf is a wrong shape.
+    CacheAtlas no_cdf = a;
+    no_cdf.cdf.clear();
+    expect_contains(validate_cache_atlas(no_cdf), "dataset 'cdf' has 0 values");
+    EXPECT_EQ(validate_cache_atlas(no_cdf, AtlasMaps::PdfOnly), "");
+}
+
 TEST(StageFileCacheAtlas, RefusesBrokenMaps) {
     CacheAtlas good = make_atlas(4, 8);
     EXPECT_EQ(validate_cache_atlas(good), "");

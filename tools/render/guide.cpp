@@ -1,6 +1,8 @@
 #include "tools/render/guide.h"
 
 #include <sys/mman.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -66,42 +68,49 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
     per_sr_ = float(N) * kInv4Pi;
     table_ = allocate_table(std::max<size_t>(1, n * stride_));
     summary_.table_bytes = n * stride_;
-    std::vector<uint32_t> guiding, claimants;
     summary_.caches = n;
-    double sum_alpha = 0;
     // At least 0.2: the map is an estimate from a few hundred photons gathered over a disc, so BSDF
     // sampling keeps a share that bounds the weight where the map is wrong (defensive sampling).
     const BsdfFractionChooser chooser(std::max(R, 1), std::min(atlas_.floor, 0.999), 0.2f);
+    // Each cache's block, in parallel (packing and choosing alpha are most of the guide's set-up time):
+    // its frame, its packed map and its BSDF share, 1 where it does not guide (unusable, or predicted
+    // to gain less than min_gain).
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 64), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t c = range.begin(); c != range.end(); ++c) {
+            unsigned char* dst = table_.get() + c * stride_;
+            const Frame f(atlas_.normal[c]);
+            float alpha = 1.0f;
+            if (atlas_.usable[c]) {
+                if (!adaptive) {
+                    alpha = o.bsdf_fraction;
+                } else if (const BsdfFractionChoice choice = chooser.choose(atlas_.pdf_row(c)); choice.gain >= o.min_gain) {
+                    alpha = choice.alpha;
+                }
+            }
+            const float h[kHeader] = {f.s.x, f.s.y, f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, alpha};
+            std::copy(h, h + kHeader, reinterpret_cast<float*>(dst));
+            packed_map::encode(atlas_.pdf_row(c), R, dst + kHeader * sizeof(float));
+        }
+    });
+    std::vector<uint32_t> claimants;
+    double sum_alpha = 0;
     for (size_t c = 0; c < n; ++c) {
-        unsigned char* dst = table_.get() + c * stride_;
-        float* head = reinterpret_cast<float*>(dst);
-        const Frame f(atlas_.normal[c]);
-        const float h[kHeader] = {f.s.x, f.s.y, f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, 1.0f};
-        std::copy(h, h + kHeader, head);
-        packed_map::encode(atlas_.pdf_row(c), R, dst + kHeader * sizeof(float));
         // Every cache that gathered photons claims the vertices near it, guiding or not: where the
         // nearest cache is not worth guiding with, the light there is what it measured, and a farther
         // cache's map (from another place) is no better a guess. It also keeps the lookup short where
         // caches do not guide (no search for a distant one).
         if (atlas_.radius[c] > 0) claimants.push_back(uint32_t(c));
-        if (!atlas_.usable[c]) continue;
-        ++summary_.usable;
-        float alpha = o.bsdf_fraction;
-        if (adaptive) {
-            const BsdfFractionChoice choice = chooser.choose(atlas_.pdf_row(c));
-            if (choice.gain < o.min_gain) continue;
-            alpha = choice.alpha;
+        summary_.usable += atlas_.usable[c] ? 1 : 0;
+        if (bsdf_fraction(int(c)) < 1) {
+            ++summary_.guiding;
+            sum_alpha += bsdf_fraction(int(c));
         }
-        head[kAlpha] = alpha;
-        sum_alpha += alpha;
-        guiding.push_back(uint32_t(c));
     }
     // The maps now live in table_.
     atlas_.pdf = {};
     atlas_.cdf = {};
-    summary_.guiding = guiding.size();
-    summary_.mean_alpha = guiding.empty() ? 1.0 : sum_alpha / double(guiding.size());
-    if (!guiding.empty()) build_grid(claimants);
+    summary_.mean_alpha = summary_.guiding == 0 ? 1.0 : sum_alpha / double(summary_.guiding);
+    if (summary_.guiding > 0) build_grid(claimants);
 }
 
 void Guide::build_grid(const std::vector<uint32_t>& claimants) {
@@ -160,20 +169,27 @@ void Guide::build_grid(const std::vector<uint32_t>& claimants) {
     // No cache farther than this from a cell's centre serves a point of the cell (half its diagonal).
     const float cell_serve2 = sqr(std::sqrt(max_serve2_) + 0.8661f * cell);
     const Vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    for (uint64_t key : keys) {
-        Slot s;
-        s.key = key;
-        const int64_t x = int64_t(key & 0x1fffff), y = int64_t((key >> 21) & 0x1fffff), z = int64_t(key >> 42);
-        const Vec3 center = grid_origin_ + Vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) * cell;
-        uint32_t idx[kAnswerCandidates];
-        float d2[kAnswerCandidates];
-        const uint32_t found = tree_->nearest(center, kAnswerCandidates, cell_serve2, idx, d2);
-        const Vec3 half(0.5f * cell);
-        for (int a = 0; a < 6; ++a) {
-            const int c = first_serving(idx, found, center - half, center + half, axes[a]);
-            s.answer[a] = c >= 0 && bsdf_fraction(c) < 1 ? c : -1;
+    // The cells' answers in parallel (a k-nearest search each), then their insertion in key order.
+    std::vector<Slot> cells(keys.size());
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, keys.size(), 256), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            const uint64_t key = keys[i];
+            Slot& s = cells[i];
+            s.key = key;
+            const int64_t x = int64_t(key & 0x1fffff), y = int64_t((key >> 21) & 0x1fffff), z = int64_t(key >> 42);
+            const Vec3 center = grid_origin_ + Vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) * cell;
+            uint32_t idx[kAnswerCandidates];
+            float d2[kAnswerCandidates];
+            const uint32_t found = tree_->nearest(center, kAnswerCandidates, cell_serve2, idx, d2);
+            const Vec3 half(0.5f * cell);
+            for (int a = 0; a < 6; ++a) {
+                const int c = first_serving(idx, found, center - half, center + half, axes[a]);
+                s.answer[a] = c >= 0 && bsdf_fraction(c) < 1 ? c : -1;
+            }
         }
-        size_t slot = mix64(key) & (cap - 1);
+    });
+    for (const Slot& s : cells) {
+        size_t slot = mix64(s.key) & (cap - 1);
         while (slots_[slot].key != ~0ull) slot = (slot + 1) & (cap - 1);
         slots_[slot] = s;
     }

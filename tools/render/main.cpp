@@ -1,11 +1,13 @@
 // render: the iris path tracer's command line. A thin shell over tools/render/integrator.h.
 #include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
 #include <memory>
+#include <thread>
 
 #include "formats/exr.h"
 #include "formats/scene_xml.h"
@@ -83,13 +85,17 @@ int main(int argc, char** argv) {
             if (guide_vertices < 0) throw std::runtime_error("--guide-vertices must be >= 0 (0 = every vertex)");
             opt.guide_vertices = guide_vertices;
         }
+        if (opt.threads < 0) throw std::runtime_error("--threads must be positive");
+        // The thread limit covers loading too: the atlas is decompressed and the guide built in parallel.
+        const unsigned threads = opt.threads > 0 ? unsigned(opt.threads) : std::max(1u, std::thread::hardware_concurrency());
+        tbb::global_control gc(tbb::global_control::max_allowed_parallelism, threads);
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
         opt.command_line = iris::join_args(argc, argv);
         iris::Scene scene = iris::load_scene(scene_path, lo);
         std::unique_ptr<iris::Guide> guide;
         if (!atlas_path.empty() && opt.mode != iris::GuideMode::NeeBsdf) {
-            iris::CacheAtlasFile f = iris::read_cache_atlas(atlas_path, scene.fingerprint);
+            iris::CacheAtlasFile f = iris::read_cache_atlas(atlas_path, scene.fingerprint, iris::AtlasMaps::PdfOnly);
             guide = std::make_unique<iris::Guide>(std::move(f.atlas), guide_options);
             const iris::GuideSummary& g = guide->summary();
             if (!opt.quiet)
