@@ -152,9 +152,9 @@ CacheAtlasFile read_cache_atlas(const std::string& path, const std::string& expe
                std::to_string(a.size()) + " rows");
     // pdf/cdf are stored (n, N): their row counts are compared here, the values in validate.
     const size_t n_tex = a.texels();
-    for (auto [name, size] : {std::pair{"pdf", a.pdf.size()}, std::pair{"cdf", a.cdf.size()}})
-        if (name == std::string("pdf") || maps == AtlasMaps::PdfAndCdf)
-            if (std::string e = h5::check_rows(name, size / n_tex, "position", a.size()); !e.empty()) r.fail(e);
+    if (std::string e = h5::check_rows("pdf", a.pdf.size() / n_tex, "position", a.size()); !e.empty()) r.fail(e);
+    if (maps == AtlasMaps::PdfAndCdf)
+        if (std::string e = h5::check_rows("cdf", a.cdf.size() / n_tex, "position", a.size()); !e.empty()) r.fail(e);
     if (std::string e = validate_cache_atlas(a, maps); !e.empty()) r.fail(e);
     return f;
 }
