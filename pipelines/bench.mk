@@ -42,6 +42,9 @@ endif
 # default pipeline's error at 120 s (both relMSEs include it, which pulls their ratio towards 1): four
 # times the samples quarter it (~30 min of both cores on the 2-core machine at full size, once).
 REF_SPP_cbox_kugeln ?= $(shell echo $$((4 * $(REF_SPP))))
+# Renders per cell (modes interleaved, seeds 7 on; the median by relMSE x time is kept): more than 1
+# measures through the shared machine's +-10 % drift in sample rate, at REPEATS times the tier's time.
+REPEATS ?= 1
 # Settings passed to pipelines/guided.mk for the preprocessing (empty: its defaults).
 PIPELINE ?=
 
@@ -73,7 +76,7 @@ params: $(call ref_of,$(PARAM_SCENE))
 runs: $(RESULTS)
 
 # The settings given on make's command line, quoted in the report's command.
-GIVEN := $(foreach v,SCALE BUDGETS MODES REF_SPP PIPELINE,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
+GIVEN := $(foreach v,SCALE BUDGETS MODES REF_SPP REPEATS PIPELINE,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
 report: $(RESULTS)
 	python3 scripts/bench.py report --tier $(TIER) --runs $(RUNS) -o docs/benchmarks/$(TIER).md --assets docs/benchmarks/$(TIER) $(GIVEN)
 
@@ -87,6 +90,7 @@ $(call ref_of,$(call name_of,$(1))): $(call path_of,$(1))
 $(RUNS)/$(call name_of,$(1))/results.json: $(call ref_of,$(call name_of,$(1))) FORCE
 	@echo "runs $(call name_of,$(1)): budgets $(BUDGETS) s, modes $(MODES)"
 	IRIS_BIN=$(BIN) python3 scripts/bench.py runs --scene $(call path_of,$(1)) --name $(call name_of,$(1)) \
-	  --scale $(SCALE) --budgets $(BUDGETS) --modes $(MODES) --reference $$< --out $(RUNS)/$(call name_of,$(1)) $(PIPELINE)
+	  --scale $(SCALE) --budgets $(BUDGETS) --modes $(MODES) --repeats $(REPEATS) --reference $$< \
+	  --out $(RUNS)/$(call name_of,$(1)) $(PIPELINE)
 endef
 $(foreach s,$(SCENES_ALL),$(eval $(call scene_rules,$(s))))
