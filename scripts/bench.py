@@ -153,6 +153,8 @@ def render_and_compare(scene, out, res, seconds, reference, extra, seed=7):
 
 
 def cmd_runs(a):
+    if a.repeats < 1:
+        raise SystemExit("bench: --repeats must be >= 1, got %d" % a.repeats)
     w, h = scaled_resolution(a.scene, a.scale)
     res = "%dx%d" % (w, h)
     os.makedirs(a.out, exist_ok=True)
