@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numeric>
 
 #include "libcommon/bsdf_fraction.h"
@@ -138,7 +139,7 @@ TEST(GuideLookup, NormalClassIsTheNearestAxis) {
     EXPECT_EQ(Guide::normal_class({0, 0, -1}), 5);
 }
 
-TEST(GuideLookup, TakesTheCellsAnswerOrTheNearestServingCacheAndGuidesOnlyWhereItGuides) {
+TEST(GuideLookup, TakesItsFineOrCoarseCellsAnswerAndGuidesOnlyWhereItGuides) {
     const CacheAtlas atlas = plane_atlas(3000, 7);
     const Guide guide(atlas, 0.25f);  // constant fraction: every usable cache guides
     Rng rng(11, 4);
@@ -159,9 +160,11 @@ TEST(GuideLookup, TakesTheCellsAnswerOrTheNearestServingCacheAndGuidesOnlyWhereI
         return -1;
     };
     const Vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-    int found = 0, none = 0, unusable_chosen = 0, in_grid = 0, outside = 0;
+    int found = 0, none = 0, unusable_chosen = 0, outside = 0;
+    std::map<float, int> by_width;  // queries answered per cell width: the fine grid's and the coarse one's
     for (int q = 0; q < 20000; ++q) {
-        // Points on and near either plane, some between them and some far from both (outside the grid);
+        // Points on and near either plane, some between them and some far from both (in the coarse grid, or
+        // farther than any cache serves);
         // normals up, down or tilted.
         const float z = q % 4 == 0 ? 0.0f : q % 4 == 1 ? 1.0f : q % 4 == 2 ? rng.next_float() : 6 * rng.next_float() - 2.5f;
         const Vec3 p{rng.next_float() * 14 - 2, rng.next_float() * 14 - 2, z + 0.02f * (rng.next_float() - 0.5f)};
@@ -170,14 +173,16 @@ TEST(GuideLookup, TakesTheCellsAnswerOrTheNearestServingCacheAndGuidesOnlyWhereI
         float width;
         int expect;
         if (guide.cell_center(p, &center, &width)) {
-            // Inside the grid: the cell's answer for n's axis, chosen for the cell.
-            ++in_grid;
+            // The cell's answer for n's axis, chosen for the cell.
+            ++by_width[width];
             const Vec3 o = center - p;
             ASSERT_LE(std::max({std::abs(o.x), std::abs(o.y), std::abs(o.z)}), 0.5f * width * 1.0001f) << "query " << q;
             expect = nearest_serving(center, axes[Guide::normal_class(n)], Guide::kAnswerCandidates, width);
         } else {
+            // In no cell: no cache serves p.
             ++outside;
-            expect = nearest_serving(p, n, 8, 0.0f);
+            ASSERT_EQ(nearest_serving(p, n, atlas.size(), 0.0f), -1) << "query " << q;
+            expect = -1;
         }
         unusable_chosen += expect >= 0 && !atlas.usable[size_t(expect)];
         if (expect >= 0 && !atlas.usable[size_t(expect)]) expect = -1;  // it claims the vertex, unguided
@@ -194,7 +199,10 @@ TEST(GuideLookup, TakesTheCellsAnswerOrTheNearestServingCacheAndGuidesOnlyWhereI
     EXPECT_GT(found, 1000);
     EXPECT_GT(none, 1000);
     EXPECT_GT(unusable_chosen, 100);
-    EXPECT_GT(in_grid, 1000);
+    ASSERT_EQ(by_width.size(), 2u);
+    EXPECT_FLOAT_EQ(by_width.rbegin()->first, 4 * by_width.begin()->first);
+    EXPECT_GT(by_width.begin()->second, 1000);   // fine cells
+    EXPECT_GT(by_width.rbegin()->second, 1000);  // coarse cells
     EXPECT_GT(outside, 1000);
     EXPECT_EQ(guide.lookup(Vec3(1e30f, 0, 0), Vec3(0, 0, 1)), -1);
     EXPECT_EQ(guide.lookup(Vec3(std::nanf(""), 0, 0), Vec3(0, 0, 1)), -1);

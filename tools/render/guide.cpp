@@ -41,8 +41,6 @@ namespace {
 constexpr float kLookupSlack = 1.5f;
 // Normal agreement between cache and vertex (cos 45 degrees).
 constexpr float kLookupNormalCos = 0.7071f;
-// Caches the tree fallback looks at (nearest first) for a vertex outside the grid.
-constexpr uint32_t kLookupCandidates = 8;
 }  // namespace
 
 // 2 MiB-aligned (the huge page size on x86-64) and advised for transparent huge pages.
@@ -114,24 +112,23 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
 }
 
 void Guide::build_grid(const std::vector<uint32_t>& claimants) {
-    positions_.clear();
-    for (uint32_t c : claimants) positions_.push_back(atlas_.position[c]);
-    claimant_ids_ = claimants;
-    tree_ = std::make_unique<PointTree>(positions_);
+    std::vector<Vec3> positions;
+    for (uint32_t c : claimants) positions.push_back(atlas_.position[c]);
+    const PointTree tree(positions);
     max_serve2_ = 0;
     for (uint32_t c : claimants) max_serve2_ = std::max(max_serve2_, sqr(atlas_.radius[c] * kLookupSlack));
     max_serve2_ = std::nextafter(max_serve2_, kInf);  // the tree's bound is exclusive
-    // Cells two cache spacings wide (the median distance between neighbouring caches, over a sample):
-    // a vertex is then at most ~1.7 spacings from the centre its answer was chosen for, while the
-    // caches serve several spacings around them. (One spacing, with the grid reaching two cells
+    // Fine cells two cache spacings wide (the median distance between neighbouring caches, over a
+    // sample): a vertex is then at most ~1.7 spacings from the centre its answer was chosen for, while
+    // the caches serve several spacings around them. (One spacing, with the grid reaching two cells
     // around each cache, gave the same noise per sample on the glass spheres, 3x the cells and a
     // slower render.)
     std::vector<float> spacing;
-    const size_t n = positions_.size(), step = std::max<size_t>(1, n / 2000);
+    const size_t n = positions.size(), step = std::max<size_t>(1, n / 2000);
     for (size_t i = 0; i < n; i += step) {
         uint32_t idx[2];
         float d2[2];
-        if (tree_->nearest(positions_[i], 2, kInf, idx, d2) == 2 && d2[1] > 0) spacing.push_back(std::sqrt(d2[1]));
+        if (tree.nearest(positions[i], 2, kInf, idx, d2) == 2 && d2[1] > 0) spacing.push_back(std::sqrt(d2[1]));
     }
     float cell = 1.0f;
     if (!spacing.empty()) {
@@ -139,35 +136,46 @@ void Guide::build_grid(const std::vector<uint32_t>& claimants) {
         cell = 2.0f * spacing[spacing.size() / 2];
     }
     if (!(cell > 0) || !std::isfinite(cell)) cell = 1.0f;
-    // The grid covers every cell within one cell of a cache: the surfaces around the caches, where the
-    // vertices that caches can serve lie (on the glass spheres every vertex; half a cell left 1 % of
-    // them to the tree); elsewhere the tree decides.
-    const float reach = cell;
+    // The fine grid covers every cell within one cell of a cache: the surfaces around the caches, where
+    // most vertices that caches serve lie (on the glass spheres every vertex; half a cell left 1 % of
+    // them to the coarse grid). The coarse grid covers each cache's whole serving distance, with cells
+    // four fine cells wide (on the egg the same noise per sample as two, a quarter of the cells to fill).
+    fill_grid(fine_, cell, std::vector<float>(n, cell), claimants, tree);
+    std::vector<float> serve(n);
+    for (size_t i = 0; i < n; ++i) serve[i] = atlas_.radius[claimants[i]] * kLookupSlack;
+    fill_grid(coarse_, 4 * fine_.cell, serve, claimants, tree);
+}
+
+void Guide::fill_grid(Grid& g, float cell, const std::vector<float>& reach, const std::vector<uint32_t>& claimants,
+                      const PointTree& tree) const {
+    const size_t n = claimants.size();
     Vec3 lo_all(kInf), hi_all(-kInf);
-    for (Vec3 p : positions_) lo_all = vmin(lo_all, p - Vec3(reach)), hi_all = vmax(hi_all, p + Vec3(reach));
-    grid_origin_ = lo_all;
+    for (size_t i = 0; i < n; ++i) {
+        const Vec3 p = atlas_.position[claimants[i]];
+        lo_all = vmin(lo_all, p - Vec3(reach[i])), hi_all = vmax(hi_all, p + Vec3(reach[i]));
+    }
+    g.origin = lo_all;
     // Grow the cells until the grid fits 2^21 cells per axis (only for scenes whose caches span more
     // than two million spacings).
-    const float extent = max_component(hi_all - lo_all);
-    cell = std::max(cell, extent / float(1 << 20));
-    inv_cell_ = 1.0f / cell;
+    g.cell = std::max(cell, max_component(hi_all - lo_all) / float(1 << 20));
+    g.inv_cell = 1.0f / g.cell;
     std::vector<uint64_t> keys;
     keys.reserve(8 * n);
     for (size_t i = 0; i < n; ++i) {
+        const Vec3 p = atlas_.position[claimants[i]];
         int64_t x0, y0, z0, x1, y1, z1;
-        if (!cell_of(positions_[i] - Vec3(reach), &x0, &y0, &z0)) continue;
-        if (!cell_of(positions_[i] + Vec3(reach), &x1, &y1, &z1)) continue;
+        if (!g.cell_of(p - Vec3(reach[i]), &x0, &y0, &z0) || !g.cell_of(p + Vec3(reach[i]), &x1, &y1, &z1)) continue;
         for (int64_t z = z0; z <= z1; ++z)
             for (int64_t y = y0; y <= y1; ++y)
-                for (int64_t x = x0; x <= x1; ++x) keys.push_back(cell_key(x, y, z));
+                for (int64_t x = x0; x <= x1; ++x) keys.push_back(Grid::key(x, y, z));
     }
     std::sort(keys.begin(), keys.end());
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
     size_t cap = 16;
     while (cap < 2 * keys.size()) cap *= 2;
-    slots_.assign(cap, Slot{});
+    g.slots.assign(cap, Slot{});
     // No cache farther than this from a cell's centre serves a point of the cell (half its diagonal).
-    const float cell_serve2 = sqr(std::sqrt(max_serve2_) + 0.8661f * cell);
+    const float cell_serve2 = sqr(std::sqrt(max_serve2_) + 0.8661f * g.cell);
     const Vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
     // The cells' answers in parallel (a k-nearest search each), then their insertion in key order.
     std::vector<Slot> cells(keys.size());
@@ -176,57 +184,54 @@ void Guide::build_grid(const std::vector<uint32_t>& claimants) {
             const uint64_t key = keys[i];
             Slot& s = cells[i];
             s.key = key;
-            const int64_t x = int64_t(key & 0x1fffff), y = int64_t((key >> 21) & 0x1fffff), z = int64_t(key >> 42);
-            const Vec3 center = grid_origin_ + Vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) * cell;
+            const Vec3 center = g.center(int64_t(key & 0x1fffff), int64_t((key >> 21) & 0x1fffff), int64_t(key >> 42));
             uint32_t idx[kAnswerCandidates];
             float d2[kAnswerCandidates];
-            const uint32_t found = tree_->nearest(center, kAnswerCandidates, cell_serve2, idx, d2);
-            const Vec3 half(0.5f * cell);
+            const uint32_t found = tree.nearest(center, kAnswerCandidates, cell_serve2, idx, d2);
+            const Vec3 half(0.5f * g.cell);
             for (int a = 0; a < 6; ++a) {
-                const int c = first_serving(idx, found, center - half, center + half, axes[a]);
+                const int c = first_serving(claimants, idx, found, center - half, center + half, axes[a]);
                 s.answer[a] = c >= 0 && bsdf_fraction(c) < 1 ? c : -1;
             }
         }
     });
     for (const Slot& s : cells) {
         size_t slot = mix64(s.key) & (cap - 1);
-        while (slots_[slot].key != ~0ull) slot = (slot + 1) & (cap - 1);
-        slots_[slot] = s;
+        while (g.slots[slot].key != ~0ull) slot = (slot + 1) & (cap - 1);
+        g.slots[slot] = s;
     }
 }
 
-const Guide::Slot* Guide::find_slot(Vec3 p) const {
+const Guide::Slot* Guide::Grid::find(Vec3 p) const {
     int64_t x, y, z;
-    if (slots_.empty() || !cell_of(p, &x, &y, &z)) return nullptr;
-    const uint64_t key = cell_key(x, y, z);
-    const size_t mask = slots_.size() - 1;
-    for (size_t slot = mix64(key) & mask;; slot = (slot + 1) & mask) {
-        const Slot& s = slots_[slot];
-        if (s.key == key) return &s;
+    if (slots.empty() || !cell_of(p, &x, &y, &z)) return nullptr;
+    const uint64_t k = key(x, y, z);
+    const size_t mask = slots.size() - 1;
+    for (size_t slot = mix64(k) & mask;; slot = (slot + 1) & mask) {
+        const Slot& s = slots[slot];
+        if (s.key == k) return &s;
         if (s.key == ~0ull) return nullptr;
     }
 }
 
 bool Guide::cell_center(Vec3 p, Vec3* center, float* width) const {
-    int64_t x, y, z;
-    if (!find_slot(p) || !cell_of(p, &x, &y, &z)) return false;
-    *width = 1.0f / inv_cell_;
-    *center = grid_origin_ + Vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) * *width;
-    return true;
+    for (const Grid* g : {&fine_, &coarse_}) {
+        int64_t x, y, z;
+        if (g->find(p) && g->cell_of(p, &x, &y, &z)) {
+            *width = g->cell;
+            *center = g->center(x, y, z);
+            return true;
+        }
+    }
+    return false;
 }
 
 int Guide::lookup(Vec3 p, Vec3 n_side) const {
-    if (slots_.empty() || !is_finite(p)) return -1;
-    int c;
-    if (const Slot* s = find_slot(p)) {
-        c = s->answer[normal_class(n_side)];
-    } else {
-        // Away from every cache (surfaces the camera does not see, mostly): the nearest few decide.
-        // A vertex none of them serves stays unguided rather than searched for a distant cache with
-        // a wide disc, whose map was measured elsewhere.
-        c = nearest_serving(p, n_side);
-        if (c >= 0 && !(bsdf_fraction(c) < 1)) c = -1;  // claimed by a cache that does not guide
-    }
+    if (!is_finite(p)) return -1;
+    const Slot* s = fine_.find(p);
+    if (!s) s = coarse_.find(p);
+    if (!s) return -1;  // no cache serves p
+    const int c = s->answer[normal_class(n_side)];
     if (c >= 0) {
         // Every guided vertex reads the header (frame, alpha) and the row ends: start loading them now.
         const unsigned char* head = block(c);
@@ -236,15 +241,10 @@ int Guide::lookup(Vec3 p, Vec3 n_side) const {
     return c;
 }
 
-int Guide::nearest_serving(Vec3 p, Vec3 n_side) const {
-    uint32_t idx[kLookupCandidates];
-    float d2[kLookupCandidates];
-    return first_serving(idx, tree_->nearest(p, kLookupCandidates, max_serve2_, idx, d2), p, p, n_side);
-}
-
-int Guide::first_serving(const uint32_t* idx, uint32_t n, Vec3 lo, Vec3 hi, Vec3 normal) const {
+int Guide::first_serving(const std::vector<uint32_t>& claimants, const uint32_t* idx, uint32_t n, Vec3 lo, Vec3 hi,
+                         Vec3 normal) const {
     for (uint32_t i = 0; i < n; ++i) {
-        const uint32_t c = claimant_ids_[idx[i]];
+        const uint32_t c = claimants[idx[i]];
         const float r = atlas_.radius[c] * kLookupSlack;
         const Vec3 q = atlas_.position[c];
         const Vec3 out = vmax(vmax(lo - q, q - hi), Vec3(0.0f));  // q's distance from the box, per axis
