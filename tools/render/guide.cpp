@@ -3,6 +3,7 @@
 #include <sys/mman.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cstdlib>
@@ -136,14 +137,16 @@ void Guide::build_grid(const std::vector<uint32_t>& claimants) {
         cell = 2.0f * spacing[spacing.size() / 2];
     }
     if (!(cell > 0) || !std::isfinite(cell)) cell = 1.0f;
-    // The fine grid covers every cell within one cell of a cache: the surfaces around the caches, where
-    // most vertices that caches serve lie (on the glass spheres every vertex; half a cell left 1 % of
-    // them to the coarse grid). The coarse grid covers each cache's whole serving distance, with cells
-    // four fine cells wide (on the egg the same noise per sample as two, a quarter of the cells to fill).
-    fill_grid(fine_, cell, std::vector<float>(n, cell), claimants, tree);
+    // The fine grid covers every cell within half a cell of a cache (2x2x2 cells per cache): the
+    // surfaces around the caches, where most vertices that caches serve lie. (Within one cell: 16 MB
+    // of slots on the egg where both grids now take 1.2 MB, the same noise per sample and 2 % more time
+    // per sample on the egg and the spheres.) The coarse grid covers each cache's whole serving distance, with cells four
+    // fine cells wide (on the egg the same noise per sample as two, a quarter of the cells to fill).
+    fill_grid(fine_, cell, std::vector<float>(n, 0.5f * cell), claimants, tree);
     std::vector<float> serve(n);
     for (size_t i = 0; i < n; ++i) serve[i] = atlas_.radius[claimants[i]] * kLookupSlack;
-    fill_grid(coarse_, 4 * fine_.cell, serve, claimants, tree);
+    fill_grid(coarse_, std::max(4 * fine_.cell, 0.5f * std::sqrt(max_serve2_)), serve, claimants, tree);
+    summary_.grid_bytes = (fine_.slots.size() + coarse_.slots.size()) * sizeof(Slot);
 }
 
 void Guide::fill_grid(Grid& g, float cell, const std::vector<float>& reach, const std::vector<uint32_t>& claimants,
@@ -169,7 +172,7 @@ void Guide::fill_grid(Grid& g, float cell, const std::vector<float>& reach, cons
             for (int64_t y = y0; y <= y1; ++y)
                 for (int64_t x = x0; x <= x1; ++x) keys.push_back(Grid::key(x, y, z));
     }
-    std::sort(keys.begin(), keys.end());
+    tbb::parallel_sort(keys.begin(), keys.end());
     keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
     size_t cap = 16;
     while (cap < 2 * keys.size()) cap *= 2;

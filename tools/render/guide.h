@@ -46,6 +46,7 @@ struct GuideSummary {
     size_t guiding = 0;        // used by the renderer: usable and, in the adaptive setting, worth it
     double mean_alpha = 1.0;   // mean BSDF share over the guiding caches
     size_t table_bytes = 0;    // the maps as the renderer holds them (packed, with their headers)
+    size_t grid_bytes = 0;     // the lookup grids' slots (fine and coarse)
 };
 
 class Guide {
@@ -60,7 +61,7 @@ public:
     // The vertex takes the answer of its cell for the axis nearest n_side (normal_class): the cache
     // nearest the cell's centre, among the kAnswerCandidates nearest it, that serves some point of the
     // cell with that axis as its normal. The cell is p's cell of the fine grid (cells about two cache
-    // spacings wide, within one cell of every cache), or else of the coarse grid (cells four times as wide,
+    // spacings wide, within half a cell of every cache), or else of the coarse grid (cells four times as wide,
     // wherever some cache serves a point); outside both no cache serves p. So the choice is a fixed
     // function of (p, n_side), as unbiased MIS requires, and -1 where the chosen cache does not guide
     // (too few photons, or a predicted gain below min_gain) or none serves.

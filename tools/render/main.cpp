@@ -99,8 +99,10 @@ int main(int argc, char** argv) {
             guide = std::make_unique<iris::Guide>(std::move(f.atlas), guide_options);
             const iris::GuideSummary& g = guide->summary();
             if (!opt.quiet)
-                std::fprintf(stderr, "render: guiding with %zu of %zu caches (%zu usable; mean BSDF share %.2f; maps %.1f MB)%s\n",
+                std::fprintf(stderr, "render: guiding with %zu of %zu caches (%zu usable; mean BSDF share %.2f; maps %.1f MB, "
+                             "lookup grids %.1f MB)%s\n",
                              g.guiding, g.caches, g.usable, g.mean_alpha, double(g.table_bytes) / 1e6,
+                             double(g.grid_bytes) / 1e6,
                              g.guiding  ? ""
                              : g.caches ? ": none is predicted to beat BSDF sampling, rendering unguided"
                                         : ": the atlas has none (place-caches skipped a scene without light "
