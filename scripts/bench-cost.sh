@@ -30,13 +30,25 @@ ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a / b}'; }
   echo "| scene | unguided (s) | unguided, rr 0.1 (s) | first vertex (s) | every vertex (s) | first vertex | every vertex | paths | guiding |"
   echo "|---|---|---|---|---|---|---|---|---|"
 } > "$report"
+# The second table splits each setting's cost per sample into rays per sample and time per ray (the
+# render's own counters, iris:rays and iris:cache_lookups, of the seed-1 render; seeds change them little):
+# guiding changes where paths go, and a guided path that follows light through glass casts more rays.
+rays_table="$out/rays-table.md"
+{
+  echo
+  echo "Rays per sample and time per ray, relative to unguided (the first table's ratio = rays x time per ray),"
+  echo "and the cache lookups per sample:"
+  echo
+  echo "| scene | rays/sample unguided | rays: rr 0.1 / first / every | time per ray: rr 0.1 / first / every | lookups/sample: first / every |"
+  echo "|---|---|---|---|---|"
+} > "$rays_table"
 for s in "${scenes[@]}"; do
   name=$(basename "${s%.xml}")
   scene=$seeds/$s
   res=$(scaled_resolution "$scene" "$scale")
   make -s -f pipelines/guided.mk SCENE="$scene" OUT="$out/$name" BIN="$bin" MIN_CAUSTIC=0 atlas
   atlas=$out/$name/atlas.h5
-  declare -A t=()
+  declare -A t=() rays=() lookups=()
   settings=(unguided rr01 first every)
   for rep in 1 2 3 4 5; do
     for k in "${settings[@]}"; do
@@ -48,12 +60,23 @@ for s in "${scenes[@]}"; do
       esac
       "$bin/render" "$scene" -o "$out/$name/$k.exr" --spp "$spp" --resolution "$res" --seed "$rep" -q "${args[@]}"
       t[$k]+="$(render_seconds "$out/$name/$k.exr") "
+      if [ $rep = 1 ]; then  # the counters depend on the seed, not on the machine: one render's suffice
+        rays[$k]=$(render_field "$out/$name/$k.exr" iris:rays)
+        lookups[$k]=$(render_field "$out/$name/$k.exr" iris:cache_lookups)
+      fi
     done
   done
   for k in "${settings[@]}"; do t[$k]=$(echo ${t[$k]} | tr ' ' '\n' | median); done
   row="| $name | ${t[unguided]} | ${t[rr01]} | ${t[first]} | ${t[every]} | $(ratio ${t[first]} ${t[unguided]}) | $(ratio ${t[every]} ${t[unguided]}) | $(ratio ${t[rr01]} ${t[unguided]}) | $(ratio ${t[every]} ${t[rr01]}) |"
   echo "$row"
   echo "$row" >> "$report"
-  unset t
+  samples=$(python3 -c "print(${res/x/*} * $spp)")
+  per_ray() { awk -v ta="${t[$1]}" -v ra="${rays[$1]}" -v tu="${t[unguided]}" -v ru="${rays[unguided]}" \
+    'BEGIN {printf "%.2fx", (ta / ra) / (tu / ru)}'; }
+  per_sample() { awk -v n="$1" -v s="$samples" 'BEGIN {printf "%.2f", n / s}'; }
+  echo "| $name | $(per_sample ${rays[unguided]}) | $(ratio ${rays[rr01]} ${rays[unguided]}) / $(ratio ${rays[first]} ${rays[unguided]}) / $(ratio ${rays[every]} ${rays[unguided]}) | $(per_ray rr01) / $(per_ray first) / $(per_ray every) | $(per_sample ${lookups[first]}) / $(per_sample ${lookups[every]}) |" >> "$rays_table"
+  unset t rays lookups
 done
+cat "$rays_table" >> "$report"
+cat "$rays_table"
 echo "wrote $report"

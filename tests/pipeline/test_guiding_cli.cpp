@@ -174,4 +174,27 @@ TEST_F(GuidingCli, NoPhotonsWithoutSpecularSurfaces) {
     EXPECT_GT(read_photon_map(d.file("pc.h5"), "").photons.size(), 0u);
 }
 
+// The render's work counters in the image's metadata (what scripts/bench-cost.sh splits the per-sample cost
+// by): unguided, no cache lookups; guiding the first vertex, at most one per path and some; guiding every
+// vertex, more; and at least one ray per path in every render.
+TEST_F(GuidingCli, RenderRecordsItsRaysAndCacheLookups) {
+    TempDir d;
+    run_ok(tool("place-caches") + " " + scene() + " --photons " + in("photons.h5") + " -q --count 50 -o " + d.file("c.h5"));
+    run_ok(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + in("photons.h5") + " -q --k 40 --resolution 8 -o " +
+           d.file("a.h5"));
+    auto counts = [&](const std::string& name, const std::string& args) {
+        run_ok(tool("render") + " " + scene() + " -q --spp 4 --seed 3 " + args + " -o " + d.file(name));
+        const Image img = read_exr(d.file(name));
+        const uint64_t paths = uint64_t(img.width) * uint64_t(img.height) * 4;
+        EXPECT_GE(std::stoull(img.metadata.at("iris:rays")), paths) << name;
+        return std::pair{std::stoull(img.metadata.at("iris:cache_lookups")), paths};
+    };
+    EXPECT_EQ(counts("u.exr", "--mode nee+bsdf").first, 0u);
+    const auto [first, paths] = counts("f.exr", "--mode nee+bsdf+cache --atlas " + d.file("a.h5") + " --guide-vertices 1");
+    EXPECT_GT(first, 0u);
+    EXPECT_LE(first, paths);
+    const auto every = counts("e.exr", "--mode nee+bsdf+cache --atlas " + d.file("a.h5") + " --guide-vertices 0").first;
+    EXPECT_GT(every, first);
+}
+
 }  // namespace

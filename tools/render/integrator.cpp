@@ -116,6 +116,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         float alpha = 1.0f, g = 0.0f;
         if (guided_here) {
             ++guided_vertices;
+            ++counters.lookups;
             Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
             cache = guide->lookup(hit.p, n_side);
             if (cache >= 0) {
@@ -422,7 +423,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     constexpr int kTile = 16;
     const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
     const int tile_count = tiles_x * tiles_y;
-    std::atomic<uint64_t> rays{0}, nonfinite{0};
+    std::atomic<uint64_t> rays{0}, lookups{0}, nonfinite{0};
 
     // The clock starts before the pilot: its time is part of the budget (equal-time comparisons).
     auto start = std::chrono::steady_clock::now();
@@ -465,6 +466,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
                     }
                 }
             rays += counters.rays;
+            lookups += counters.lookups;
             nonfinite += bad;
             if (!timed) progress.advance(uint64_t(s1 - s0));
         });
@@ -502,6 +504,8 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         img.metadata["iris:seed"] = std::to_string(opt.seed);
         img.metadata["iris:max_depth"] = std::to_string(ps.max_depth);
         img.metadata["iris:nonfinite_samples"] = std::to_string(nonfinite.load());
+        img.metadata["iris:rays"] = std::to_string(rays.load());
+        img.metadata["iris:cache_lookups"] = std::to_string(lookups.load());
         img.metadata["iris:scene"] = scene.source;
         img.metadata["iris:scene_fingerprint"] = scene.fingerprint;
         img.metadata["iris:command_line"] = opt.command_line;
@@ -557,6 +561,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         stats->seconds = seconds;
         stats->paths = uint64_t(spp) * uint64_t(width) * uint64_t(height);
         stats->rays = rays.load();
+        stats->lookups = lookups.load();
         stats->nonfinite = nonfinite.load();
         stats->threads = threads;
     }

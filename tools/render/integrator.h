@@ -83,6 +83,7 @@ struct RenderStats {
     double seconds = 0;          // wall time of the sampling passes
     uint64_t paths = 0;          // camera paths traced
     uint64_t rays = 0;           // rays cast (closest-hit and shadow)
+    uint64_t lookups = 0;        // path vertices at which a cache was looked up
     uint64_t nonfinite = 0;      // samples discarded because they were NaN or Inf
     int threads = 0;
 };
@@ -100,7 +101,8 @@ inline constexpr float kDeepRouletteThreshold = 0.1f;
 
 // Counters kept per worker and summed at the end.
 struct PathCounters {
-    uint64_t rays = 0;
+    uint64_t rays = 0;     // closest-hit and shadow rays
+    uint64_t lookups = 0;  // vertices at which a cache was looked up (guided rendering)
 };
 
 // Guide only when the pilot predicts a clear win: the pilot is noisy, and losing is worse than not
