@@ -19,6 +19,10 @@ report=docs/benchmarks/cost.md
 mkdir -p "$out" docs/benchmarks
 scenes=(cbox_kugeln.xml cbox_spiegelboxen.xml veach_bidir/bidir.xml metal_ring/ring.xml)
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN {printf "%.2fx", a / b}'; }
+# Time per ray of setting $1 relative to unguided, and a count per sample (both read the loop's t, rays, samples).
+per_ray() { awk -v ta="${t[$1]}" -v ra="${rays[$1]}" -v tu="${t[unguided]}" -v ru="${rays[unguided]}" \
+  'BEGIN {printf "%.2fx", (ta / ra) / (tu / ru)}'; }
+per_sample() { awk -v n="$1" -v s="$samples" 'BEGIN {printf "%.2f", n / s}'; }
 {
   echo "## Per-sample cost of guided rendering, decomposed"
   echo
@@ -71,9 +75,6 @@ for s in "${scenes[@]}"; do
   echo "$row"
   echo "$row" >> "$report"
   samples=$(python3 -c "print(${res/x/*} * $spp)")
-  per_ray() { awk -v ta="${t[$1]}" -v ra="${rays[$1]}" -v tu="${t[unguided]}" -v ru="${rays[unguided]}" \
-    'BEGIN {printf "%.2fx", (ta / ra) / (tu / ru)}'; }
-  per_sample() { awk -v n="$1" -v s="$samples" 'BEGIN {printf "%.2f", n / s}'; }
   echo "| $name | $(per_sample ${rays[unguided]}) | $(ratio ${rays[rr01]} ${rays[unguided]}) / $(ratio ${rays[first]} ${rays[unguided]}) / $(ratio ${rays[every]} ${rays[unguided]}) | $(per_ray rr01) / $(per_ray first) / $(per_ray every) | $(per_sample ${lookups[first]}) / $(per_sample ${lookups[every]}) |" >> "$rays_table"
   unset t rays lookups
 done

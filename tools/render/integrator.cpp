@@ -561,7 +561,6 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         stats->seconds = seconds;
         stats->paths = uint64_t(spp) * uint64_t(width) * uint64_t(height);
         stats->rays = rays.load();
-        stats->lookups = lookups.load();
         stats->nonfinite = nonfinite.load();
         stats->threads = threads;
     }

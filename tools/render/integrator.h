@@ -83,7 +83,6 @@ struct RenderStats {
     double seconds = 0;          // wall time of the sampling passes
     uint64_t paths = 0;          // camera paths traced
     uint64_t rays = 0;           // rays cast (closest-hit and shadow)
-    uint64_t lookups = 0;        // path vertices at which a cache was looked up
     uint64_t nonfinite = 0;      // samples discarded because they were NaN or Inf
     int threads = 0;
 };
