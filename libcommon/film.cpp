@@ -35,6 +35,14 @@ FilterSampler::FilterSampler(const FilmSettings& film) : film_(film) {
         pdf_[i] = float(mass[i] / total / dx);
     }
     cdf_[kFilterBins] = 1.0f;
+    norm1d_ = float(total);
+}
+
+float FilterSampler::density(Vec2 o) const {
+    if (film_.filter == FilterType::Box) return std::abs(o.x) < 0.5f && std::abs(o.y) < 0.5f ? 1.0f : 0.0f;
+    const float r = film_.filter_radius;
+    if (!(std::abs(o.x) < r && std::abs(o.y) < r)) return 0.0f;
+    return eval1d(o.x) * eval1d(o.y) / (norm1d_ * norm1d_);
 }
 
 float FilterSampler::eval1d(float x) const {
@@ -68,13 +76,19 @@ Vec2 FilterSampler::sample(Vec2 u, float* weight) const {
 
 Film::Film(int w, int h)
     : width(w), height(h), sum_wl(size_t(w) * h * 3, 0.0), sum_wl2(size_t(w) * h * 3, 0.0),
-      sum_w(size_t(w) * h, 0.0), count(size_t(w) * h, 0) {}
+      sum_w(size_t(w) * h, 0.0), count(size_t(w) * h, 0), light_sum(size_t(w) * h * 3, 0.0),
+      light_sum2(size_t(w) * h * 3, 0.0) {}
 
 RGB Film::value(int x, int y) const {
     size_t i = size_t(y) * width + x;
     if (sum_w[i] <= 0) return RGB(0.0f);
     double inv = 1.0 / sum_w[i];
-    return RGB(float(sum_wl[3 * i] * inv), float(sum_wl[3 * i + 1] * inv), float(sum_wl[3 * i + 2] * inv));
+    // Each pass of one sample per pixel also traces light_paths_per_sample light paths for the whole
+    // image, so after count[i] samples the light tracer's estimate is its sum over that many paths.
+    const double inv_light = light_paths_per_sample > 0 ? 1.0 / (light_paths_per_sample * count[i]) : 0.0;
+    RGB v;
+    for (int c = 0; c < 3; ++c) v[c] = float(sum_wl[3 * i + c] * inv + light_sum[3 * i + c] * inv_light);
+    return v;
 }
 
 RGB Film::variance(int x, int y) const {
@@ -89,7 +103,14 @@ RGB Film::variance(int x, int y) const {
         // Saturate at the largest float: samples near 1e20 (legal radiances) have squares beyond float's
         // range, and an infinite variance would make the EXR writer refuse the whole image (found by
         // tests/stress/test_extreme_radiance.cpp). The sums themselves are double and do not overflow.
-        r[c] = float(std::min(var_sample / n / (mean_w * mean_w), double(std::numeric_limits<float>::max())));
+        double var = var_sample / n / (mean_w * mean_w);
+        if (light_paths_per_sample > 0) {
+            // The light tracer's own estimate: its paths are independent of the camera's.
+            const double nl = light_paths_per_sample * n;
+            const double lm = light_sum[3 * i + c] / nl, lm2 = light_sum2[3 * i + c] / nl;
+            var += std::max(0.0, lm2 - lm * lm) / nl;
+        }
+        r[c] = float(std::min(var, double(std::numeric_limits<float>::max())));
     }
     return r;
 }

@@ -18,6 +18,11 @@ public:
     explicit FilterSampler(const FilmSettings& film);
     // Offset from the pixel centre, in pixels, and the sample's weight f(x)/p(x).
     Vec2 sample(Vec2 u, float* weight) const;
+    // Normalised 2D filter density at an offset from a pixel centre (pixels^-2; integrates to one), the
+    // weight a light-traced splat gives that pixel: the same filter the camera samples integrate against.
+    float density(Vec2 offset) const;
+    // Half-width of the filter's support, pixels.
+    float radius() const { return film_.filter == FilterType::Box ? 0.5f : film_.filter_radius; }
 
 private:
     float eval1d(float x) const;
@@ -26,6 +31,7 @@ private:
     float floor_ = 0;        // the Gaussian's value at the radius, subtracted so the filter ends at zero
     std::vector<float> cdf_;  // piecewise-constant tabulation of the 1D filter over [-radius, radius]
     std::vector<float> pdf_;  // per pixel (1D density)
+    float norm1d_ = 1;        // integral of eval1d over [-radius, radius]
 };
 
 // Accumulates weighted samples per pixel (double precision: long renders add millions of samples).
@@ -35,6 +41,10 @@ struct Film {
     std::vector<double> sum_wl2;   // 3 per pixel: sum of (w * L)^2, for the variance layer
     std::vector<double> sum_w;     // sum of weights
     std::vector<uint32_t> count;   // samples taken
+    // Light-traced contributions (render's caustic light tracer), splatted through the filter: their sum
+    // and sum of squares per pixel; the image adds sum / (light paths per sample x samples per pixel).
+    std::vector<double> light_sum, light_sum2;
+    double light_paths_per_sample = 0;  // 0: no light tracing
 
     Film(int w, int h);
     void add(int x, int y, RGB l, float weight) {
@@ -46,6 +56,12 @@ struct Film {
         }
         sum_w[i] += weight;
         count[i] += 1;
+    }
+    void add_light(size_t pixel, RGB v) {
+        for (int c = 0; c < 3; ++c) {
+            light_sum[3 * pixel + c] += v[c];
+            light_sum2[3 * pixel + c] += double(v[c]) * v[c];
+        }
     }
     RGB value(int x, int y) const;
     // Variance of the pixel estimate (not of one sample), per channel.

@@ -19,7 +19,7 @@ inline uint64_t hash_combine(uint64_t a, uint64_t b) { return mix64(a ^ mix64(b)
 inline uint64_t hash3(uint64_t a, uint64_t b, uint64_t c) { return hash_combine(hash_combine(a, b), c); }
 
 // Stage identifiers folded into seeds, so stages never share random streams.
-enum class Stream : uint64_t { Camera = 1, Photons = 2, Caches = 3, Test = 4 };
+enum class Stream : uint64_t { Camera = 1, Photons = 2, Caches = 3, Test = 4, LightPaths = 5 };
 
 // PCG32 (O'Neill 2014): 64-bit state, 32-bit output, selectable stream.
 class Rng {

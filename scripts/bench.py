@@ -389,7 +389,9 @@ def cmd_report(a):
              "unguided render after the photon pass), elsewhere a pilot inside the budget chooses between "
              "unguided sampling, guiding the first vertex "
              "(what `nee+bsdf+cache` renders) and guiding every vertex with Russian roulette only below "
-             "throughput 0.1 (0.3 elsewhere). Each cell: %s."
+             "throughput 0.1 (0.3 elsewhere), each with or without light tracing of the caustics seen directly "
+             "(`--caustics auto`, on wherever they are at least 0.1 %% of the image); the fixed guided modes "
+             "do not light-trace. Each cell: %s."
              % (command, results[0]["date"] if results else "-", results[0]["threads"] if results else "-", per_cell), ""]
     summary = []
     for r in results:

@@ -261,6 +261,8 @@ const BadInputCase kCases[] = {
     {"RenderNegativeGuideVertices", "render", "--guide-vertices -1", "{in}/valid.xml --atlas {in}/atlas.h5 --guide-vertices -1 -o {out}", "--guide-vertices"},
     {"RenderAutoWithoutAtlas", "render", "--mode auto without --atlas", "{in}/valid.xml --mode auto -o {out}", "--atlas"},
     {"RenderUnknownMode", "render", "--mode that does not exist", "{in}/valid.xml --mode bogus -o {out}", "bogus"},
+    {"RenderUnknownCaustics", "render", "--caustics that does not exist", "{in}/valid.xml --caustics sometimes -o {out}", "sometimes"},
+    {"RenderLightPathsZero", "render", "--light-paths 0", "{in}/valid.xml --caustics on --light-paths 0 -o {out}", "--light-paths"},
     {"RenderCacheModeWithoutAtlas", "render", "--mode nee+cache without --atlas", "{in}/valid.xml --mode nee+cache -o {out}", "--atlas"},
     {"RenderUnknownFlag", "render", "a flag that does not exist", "{in}/valid.xml --no-such-flag -o {out}", "--no-such-flag"},
     {"RenderNoOutput", "render", "-o left out", "{in}/valid.xml", "--output"},

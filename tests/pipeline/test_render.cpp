@@ -76,6 +76,28 @@ TEST(RenderCli, SameSeedSameImageForAnyThreadCount) {
     EXPECT_NE(read_exr(dir.file("c.exr")).data[0], ia.data[0]) << "a different seed must change the noise";
 }
 
+// The caustic light tracer's splats are summed in path order whatever the threads (caustics.h): the
+// caustic box (a glass sphere, a Gaussian-free box filter) with --caustics on gives identical images.
+TEST(RenderCli, LightTracedCausticsAreTheSameForAnyThreadCount) {
+    TempDir dir;
+    const std::string scene = data_file("guiding/caustic_box.xml");
+    auto a = run_command(tool("render") + " " + scene + " -o " + dir.file("a.exr") + " -q --spp 8 -t 1 --seed 9 --caustics on");
+    auto b = run_command(tool("render") + " " + scene + " -o " + dir.file("b.exr") +
+                         " -q --spp 8 -t 2 --seed 9 --caustics on --variance");
+    ASSERT_EQ(a.status, 0) << a.output;
+    ASSERT_EQ(b.status, 0) << b.output;
+    Image ia = read_exr(dir.file("a.exr")), ib = read_exr(dir.file("b.exr"));
+    for (const char* ch : {"R", "G", "B"})
+        EXPECT_EQ(ia.data[size_t(ia.channel_index(ch))], ib.data[size_t(ib.channel_index(ch))]) << ch;
+    EXPECT_EQ(ia.metadata.at("iris:light_paths"), std::to_string(8 * 32 * 32));
+    EXPECT_EQ(ib.metadata.at("iris:caustics"), "light-traced, 1024 light paths per sample pass");
+    // Where no area light can reach a surface through a Dirac bounce, nothing is traced.
+    auto c = run_command(tool("render") + " " + data_file("render/furnace_box.xml") + " -o " + dir.file("c.exr") +
+                         " -q --spp 2 --caustics on");
+    ASSERT_EQ(c.status, 0) << c.output;
+    EXPECT_EQ(read_exr(dir.file("c.exr")).metadata.at("iris:light_paths"), "0");
+}
+
 TEST(RenderCli, TimeBudgetAndLayers) {
     TempDir dir;
     std::string out = dir.file("t.exr");

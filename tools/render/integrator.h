@@ -37,6 +37,10 @@ struct RenderOptions {
     // With a guide: measure unguided and guided sampling in a short pilot first and guide only if the
     // pilot predicts a win at equal time (decide_guiding); the pilot's time counts in the budget.
     bool auto_guide = false;
+    // Light tracing of caustics seen directly by the camera (caustics.h): Off, On (wherever possible),
+    // or Auto (where the pilot predicts a win at equal time; it then also picks the light paths per pixel).
+    enum class Caustics : uint8_t { Off, On, Auto } caustics = Caustics::Off;
+    double light_paths_per_pixel = 0;  // light paths per pixel and pass; 0 = 1 (On) or the pilot's choice (Auto)
     // Progressive snapshots: when > 0 and `snapshot` is set, it is called with the image so far about
     // every `snapshot_interval` seconds (between passes, on the calling thread).
     double snapshot_interval = 0;
@@ -56,22 +60,37 @@ struct PathSettings {
     // Guide only the first this many non-specular vertices of a path (each guided vertex costs a
     // lookup; >= 2^29 = every vertex).
     int guide_vertices = 1 << 30;
+    // The caustic class of caustics.h is light-traced: drop its paths (emitter hits after a Dirac chain
+    // that began at the first vertex's non-Dirac event).
+    bool light_traced_caustics = false;
 };
 
-// The pilot's verdict for automatic guiding: measured noise and cost of each candidate setting on a
-// sparse pixel grid, and the one expected to win at equal time.
+// The pilot's verdict for automatic guiding and caustic light tracing: measured noise and cost of each
+// candidate setting on a sparse pixel grid, with and without the light tracer taking over the caustic
+// class (caustics.h), and the combination expected to win at equal time.
 struct GuideDecision {
     struct Candidate {
         PathSettings settings;
         double rel_variance = 0;        // mean over pilot pixels of sample variance / (mean^2 + 0.01)
+        double rel_variance_rest = 0;   // the same without the caustic class (what remains when light-traced)
         double seconds_per_sample = 0;  // wall seconds per path sample, all threads working
     };
-    std::vector<Candidate> candidates;  // [0]: unguided
+    std::vector<Candidate> candidates;  // [0]: the setting the others are measured against (unguided in --mode auto)
     int chosen = 0;
-    double efficiency_ratio = 1;  // (noise x time) unguided / chosen; > 1: guiding wins
+    double efficiency_ratio = 1;  // (noise x time) of candidate 0 without light tracing / the chosen combination's
     double pilot_seconds = 0;
     int pilot_spp = 0;            // samples per pilot pixel, each candidate
-    bool guide() const { return chosen > 0; }
+    bool guided_choice = true;    // the candidates differ in guiding (--mode auto), else only light tracing was weighed
+    // The caustic light tracer, where it was weighed (light_weighed):
+    bool light_weighed = false;
+    bool light_trace = false;           // chosen
+    double light_paths_per_pixel = 0;   // per camera sample, chosen (or given)
+    double light_rel_variance = 0;      // its relative variance per camera sample at one light path per pixel
+    double light_seconds_per_path = 0;  // wall seconds per light path, all threads working
+    double light_share = 0;             // the caustic class's share of the mean pixel
+    bool light_share_decides = false;   // light_share >= kMinCausticShare: light-traced whatever the prediction
+    uint64_t light_pilot_paths = 0;
+    bool guide() const { return candidates.at(size_t(chosen)).settings.guide != nullptr; }
 };
 // One line for the user and the image's metadata.
 std::string describe(const GuideDecision& d);
@@ -84,6 +103,7 @@ struct RenderStats {
     uint64_t paths = 0;          // camera paths traced
     uint64_t rays = 0;           // rays cast (closest-hit and shadow)
     uint64_t nonfinite = 0;      // samples discarded because they were NaN or Inf
+    uint64_t light_paths = 0;    // caustic light paths traced (0: not light-traced)
     int threads = 0;
 };
 
@@ -107,6 +127,12 @@ struct PathCounters {
 // Guide only when the pilot predicts a clear win: the pilot is noisy, and losing is worse than not
 // winning (scenes guiding cannot help must not pay for it).
 inline constexpr double kGuideMargin = 1.1;
+// Light-trace the caustic class only where the pilot predicts this much gain (every pass pays for the
+// light paths), with between these many light paths per pixel and pass.
+inline constexpr double kLightMargin = 1.05;
+inline constexpr double kMinLightPathsPerPixel = 1.0 / 16, kMaxLightPathsPerPixel = 4;
+// The caustic class's share of the image above which it is light-traced whatever the pilot predicts.
+inline constexpr double kMinCausticShare = 0.001;
 
 // The guided settings the automatic mode weighs against unguided sampling, from the resolved settings
 // `guided`: those themselves, and where `expand` (the user fixed none of --guide-vertices, --rr-depth,
@@ -120,15 +146,24 @@ std::vector<PathSettings> guided_candidates(const PathSettings& guided, bool exp
 // One line naming a candidate's settings, e.g. "every vertex, roulette below 0.1 from depth 5".
 std::string describe(const PathSettings& s);
 
-// Runs the pilot (about budget_seconds, at least a minimum number of samples) for unguided sampling
-// and each of the guided candidates, and picks the one predicted to be most efficient.
+// Runs the pilot (about budget_seconds, at least a minimum number of samples) for each candidate
+// (candidates[0] is the one the others are measured against: unguided in --mode auto) and, where
+// `light` is given, a light-tracing pilot of the caustic class; picks the combination predicted to be
+// most efficient. With light tracing, the number of light paths per pixel and pass F trades the light
+// tracer's noise v_l / F against its cost F t_l: the pilot takes F = sqrt(v_l t / (v t_l)) (v, t: the
+// camera paths' remaining noise and cost), within [1/16, 4], unless `light_paths_per_pixel` > 0 fixes it.
+class CausticTracer;
 GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width, int height, uint64_t seed,
-                             const std::vector<PathSettings>& guided, double budget_seconds);
+                             const std::vector<PathSettings>& candidates, double budget_seconds,
+                             const CausticTracer* light = nullptr, double light_paths_per_pixel = 0);
 
 class Rng;
 // Radiance along the camera ray (one sample of the path-space integral). Never returns NaN/Inf
-// unless the scene data are degenerate; callers still check.
-RGB trace_path(const Scene& scene, const Ray& ray, Rng& rng, const PathSettings& ps, PathCounters& counters);
+// unless the scene data are degenerate; callers still check. Where `caustic` is given it receives the
+// sample's part in the caustic class (caustics.h), which the result leaves out when
+// ps.light_traced_caustics.
+RGB trace_path(const Scene& scene, const Ray& ray, Rng& rng, const PathSettings& ps, PathCounters& counters,
+               RGB* caustic = nullptr);
 
 // Renders the image. Throws std::runtime_error on invalid options.
 Image render_image(const Scene& scene, const RenderOptions& options, RenderStats* stats);

@@ -55,6 +55,13 @@ int main(int argc, char** argv) {
                    "auto the pilot also weighs every vertex with less Russian roulette)");
     app.add_option("--min-gain", guide_options.min_gain,
                    "With --bsdf-fraction auto: least predicted variance reduction for a cache to be used (>= 1)");
+    std::string caustics;
+    app.add_option("--caustics", caustics,
+                   "Light-trace caustics seen directly by the camera (light -> specular chain -> visible surface), "
+                   "taking them out of the path tracer's work: auto (default with --mode auto: where a pilot "
+                   "predicts a gain at equal time, weighed with guiding) | on | off (default otherwise)");
+    app.add_option("--light-paths", opt.light_paths_per_pixel,
+                   "With --caustics: light paths per pixel and pass (default: 1 with on, the pilot's choice with auto)");
     app.add_option("--snapshot", opt.snapshot_interval,
                    "Every SECONDS, write the image so far to the output (atomically), so that an interrupted "
                    "render still leaves a usable image");
@@ -69,6 +76,13 @@ int main(int argc, char** argv) {
         iris::check_output_path(output);
         opt.auto_guide = mode == "auto";
         opt.mode = opt.auto_guide ? iris::GuideMode::NeeBsdfCache : iris::parse_guide_mode(mode);
+        if (caustics.empty()) caustics = opt.auto_guide ? "auto" : "off";
+        if (caustics == "auto") opt.caustics = iris::RenderOptions::Caustics::Auto;
+        else if (caustics == "on") opt.caustics = iris::RenderOptions::Caustics::On;
+        else if (caustics == "off") opt.caustics = iris::RenderOptions::Caustics::Off;
+        else throw std::runtime_error("--caustics must be auto, on or off, got '" + caustics + "'");
+        if (app.count("--light-paths") && !(opt.light_paths_per_pixel > 0 && opt.light_paths_per_pixel <= 1024))
+            throw std::runtime_error("--light-paths must be in (0, 1024]");
         if (opt.auto_guide && atlas_path.empty()) throw std::runtime_error("--mode auto needs --atlas");
         if (bsdf_fraction != "auto") {
             guide_options.bsdf_fraction = iris::parse_float_option("--bsdf-fraction", bsdf_fraction);

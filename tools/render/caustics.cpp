@@ -1,0 +1,160 @@
+#include "tools/render/caustics.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+
+#include "libcommon/emission.h"
+#include "libcommon/rng.h"
+
+namespace iris {
+
+CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, int width, int height,
+                             const FilterSampler& filter, int max_depth, int rr_depth)
+    : scene_(scene), camera_(camera), width_(width), height_(height), filter_(filter), max_depth_(max_depth),
+      rr_depth_(rr_depth) {
+    pixels_per_plane_area_ = float(width) / (2 * camera.tan_half_x) * (float(height) / (2 * camera.tan_half_y));
+}
+
+bool CausticTracer::possible(const Scene& scene) {
+    bool area_light = false;
+    for (const Light& l : scene.lights)
+        area_light = area_light || l.type == LightType::AreaMesh || l.type == LightType::AreaSphere;
+    if (!area_light) return false;
+    for (const Mesh& m : scene.meshes)
+        if (bsdf_has_delta_lobe(scene.bsdfs[m.bsdf])) return true;
+    for (const Sphere& s : scene.spheres)
+        if (bsdf_has_delta_lobe(scene.bsdfs[s.bsdf])) return true;
+    return false;
+}
+
+// Connects the light path's vertex `hit` (reached from direction w_light, pointing back along the
+// light path; beta = its flux, W) to the camera. The camera path's estimator at the same vertex is
+// bsdf_eval(wi = towards the camera, wo = towards the light) x incident radiance; the light path's
+// beta is flux through the geometric surface, i.e. radiance x |cos_g(wo)| dA dw. Film position u (in
+// pixels) and surface area relate as du = pixels_per_plane_area |cos_g(wi)| / (d^2 cos^3 theta) dA, theta
+// the angle to the view axis. So the splat is beta f / |cos_g(wo)| x that factor x the filter density.
+void CausticTracer::splat(const SurfaceHit& hit, Vec3 w_light, RGB beta, std::vector<CausticSplat>& out,
+                          PathCounters& counters, bool* bad) const {
+    const Vec3 wo = hit.frame.to_local(w_light);
+    if (!(dot(w_light, hit.ng) * wo.z > 0)) return;  // the camera path's consistent_side for its continuation
+    const Vec3 to_cam = camera_.origin - hit.p;
+    const float dist = length(to_cam);
+    if (!(dist > 0)) return;
+    const Vec3 w_cam = to_cam / dist;
+    const Vec3 wi = hit.frame.to_local(w_cam);
+    if (wi.z == 0) return;
+    const float cos_fwd = -dot(w_cam, camera_.forward);
+    if (!(cos_fwd > 0)) return;
+    const float depth_along_axis = dist * cos_fwd;
+    if (depth_along_axis < camera_.near_clip || depth_along_axis > camera_.far_clip) return;
+    // Film position, the inverse of camera_direction.
+    const Vec3 dir = -w_cam;
+    const float px = dot(dir, camera_.right) / cos_fwd, py = dot(dir, camera_.up) / cos_fwd;
+    const float fx = (px / camera_.tan_half_x + 1) * 0.5f * float(width_);
+    const float fy = (1 - py / camera_.tan_half_y) * 0.5f * float(height_);
+    const float r = filter_.radius();
+    // Pixels whose filter reaches u: centres x + 0.5 within r of fx.
+    const int x0 = std::max(0, int(std::ceil(fx - r - 0.5f))), x1 = std::min(width_ - 1, int(std::floor(fx + r - 0.5f)));
+    const int y0 = std::max(0, int(std::ceil(fy - r - 0.5f))), y1 = std::min(height_ - 1, int(std::floor(fy + r - 0.5f)));
+    if (x0 > x1 || y0 > y1) return;
+    const RGB f = bsdf_eval(scene_.bsdfs[hit.bsdf], wi, wo);
+    if (is_black(f)) return;
+    // Visible from the camera: the camera ray starts at the near plane, so the segment ends there.
+    ++counters.rays;
+    Ray shadow;
+    shadow.o = offset_ray_origin(hit.p, hit.ng, w_cam, hit.magnitude);
+    shadow.d = w_cam;
+    shadow.tmax = length(camera_.origin - shadow.o) - camera_.near_clip / cos_fwd;
+    if (shadow.tmax > 0 && scene_.occluded(shadow)) return;
+    const float geometry = std::abs(dot(w_cam, hit.ng)) / std::abs(dot(w_light, hit.ng)) * pixels_per_plane_area_ /
+                           (dist * dist * cos_fwd * cos_fwd * cos_fwd);
+    const RGB c = beta * f * geometry;
+    if (!is_finite(c)) {
+        *bad = true;
+        return;
+    }
+    for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+            const float w = filter_.density({fx - (float(x) + 0.5f), fy - (float(y) + 0.5f)});
+            if (w > 0) out.push_back({uint32_t(y) * uint32_t(width_) + uint32_t(x), c * w});
+        }
+}
+
+bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSplat>& out, PathCounters& counters) const {
+    Rng rng = Rng::for_index(seed, Stream::LightPaths, index);
+    const float u_sel = rng.next_float();
+    const Vec2 u_pos{rng.next_float(), rng.next_float()}, u_dir{rng.next_float(), rng.next_float()};
+    EmissionSample e;
+    if (!sample_emission(scene_, u_sel, u_pos, u_dir, &e)) return true;
+    // Point lights and the environment (zero normal) are outside class C (caustics.h).
+    if (e.n.x == 0 && e.n.y == 0 && e.n.z == 0) return true;
+    RGB beta = e.flux;
+    Ray ray;
+    ray.o = offset_ray_origin(e.p, e.n, e.d, scene_.scale());
+    ray.d = e.d;
+    SurfaceHit hit;
+    bool bad = false;
+    // depth = edges from the light to the current vertex; a splat there makes a path of depth + 1 edges.
+    for (int depth = 1; max_depth_ < 0 || depth + 1 <= max_depth_; ++depth) {
+        ++counters.rays;
+        if (!scene_.intersect(ray, &hit)) break;
+        const Bsdf& bsdf = scene_.bsdfs[hit.bsdf];
+        const Vec3 w_light = -ray.d;
+        const Vec3 wi = hit.frame.to_local(w_light);
+        if (wi.z == 0) break;
+        if (depth >= 2 && !bsdf_is_delta(bsdf)) splat(hit, w_light, beta, out, counters, &bad);
+        // Only a Dirac event continues the chain: any other makes x1 a later vertex of a path that is not
+        // in class C (the path tracer's).
+        if (!bsdf_has_delta_lobe(bsdf)) break;
+        BsdfSample bs;
+        const float uc = rng.next_float();
+        const Vec2 u{rng.next_float(), rng.next_float()};
+        if (!bsdf_sample(bsdf, wi, u, uc, &bs, TransportMode::Importance) || !bs.delta) break;
+        const Vec3 wo_world = hit.frame.to_world(bs.wo);
+        if (dot(wo_world, hit.ng) * bs.wo.z <= 0 || dot(w_light, hit.ng) * wi.z <= 0) break;
+        // Adjoint BSDF with shading normals, as the photon tracer (Veach 1997, 5.3).
+        const float corr = std::abs(wi.z * dot(wo_world, hit.ng)) / std::abs(dot(w_light, hit.ng) * bs.wo.z);
+        RGB next = beta * bs.weight * (std::isfinite(corr) ? corr : 0.0f);
+        if (depth >= rr_depth_) {
+            // Total internal reflection can keep a path inside glass: roulette on the throughput's ratio.
+            const float q = std::min(1.0f, max_component(next) / std::max(max_component(beta), 1e-30f));
+            if (!(rng.next_float() < q)) break;
+            next /= q;
+        }
+        beta = next;
+        if (is_black(beta)) break;
+        ray = spawn_ray(hit, wo_world);
+    }
+    return !bad;
+}
+
+uint64_t trace_light_paths(const CausticTracer& tracer, uint64_t seed, uint64_t first, uint64_t count,
+                           const std::function<void(const CausticSplat&)>& sink, std::atomic<uint64_t>& rays) {
+    constexpr uint64_t kChunk = 4096, kChunksPerBatch = 64;  // bounded memory for any number of paths
+    const uint64_t chunks = (count + kChunk - 1) / kChunk;
+    std::vector<std::vector<CausticSplat>> parts(std::min(chunks, kChunksPerBatch));
+    uint64_t bad_total = 0;
+    for (uint64_t b0 = 0; b0 < chunks; b0 += kChunksPerBatch) {
+        const uint64_t b1 = std::min(chunks, b0 + kChunksPerBatch);
+        std::atomic<uint64_t> bad{0};
+        tbb::parallel_for(b0, b1, [&](uint64_t c) {
+            PathCounters counters;
+            std::vector<CausticSplat>& out = parts[c - b0];
+            out.clear();
+            uint64_t nb = 0;
+            for (uint64_t i = c * kChunk; i < std::min(count, (c + 1) * kChunk); ++i)
+                nb += tracer.trace(seed, first + i, out, counters) ? 0 : 1;
+            rays += counters.rays;
+            bad += nb;
+        });
+        for (uint64_t c = b0; c < b1; ++c)
+            for (const CausticSplat& s : parts[c - b0]) sink(s);
+        bad_total += bad;
+    }
+    return bad_total;
+}
+
+}  // namespace iris
