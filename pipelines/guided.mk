@@ -48,6 +48,9 @@ TIME ?= 30
 SPP ?= 0
 MODE ?= auto
 BSDF_FRACTION ?= auto
+# Light tracing of the caustics seen directly (render --caustics): auto (MODE=auto's default: where they
+# are at least 0.1 % of the image or the pilot predicts a gain) | on | off.
+CAUSTICS ?= $(if $(filter auto,$(MODE)),auto,off)
 RENDER_FLAGS ?=
 # reference (unguided, long), kept outside the output folder so several runs share it
 REF_SPP ?= 1024
@@ -64,7 +67,7 @@ CMD_caches = $(BIN)/place-caches $(SCENE) --photons $(OUT)/photons.h5 -o $(OUT)/
 CMD_atlas = $(BIN)/fill-caches $(OUT)/caches.h5 --photons $(OUT)/photons.h5 -o $(OUT)/atlas.h5 --k $(K) \
   --resolution $(RES) --filter-sigma $(SIGMA) --floor $(FLOOR) --max-radius $(MAX_RADIUS) \
   $(if $(filter bsdf+cache,$(MODE)),--direct) $(COMMON)
-CMD_guided = $(BIN)/render $(SCENE) --atlas $(OUT)/atlas.h5 --mode $(MODE) --bsdf-fraction $(BSDF_FRACTION) \
+CMD_guided = $(BIN)/render $(SCENE) --atlas $(OUT)/atlas.h5 --mode $(MODE) --bsdf-fraction $(BSDF_FRACTION) --caustics $(CAUSTICS) \
   -o $(OUT)/guided.exr $(BUDGET) --variance $(RENDER_FLAGS) $(COMMON)
 # The unguided budget is completed at run time with the measured preprocessing seconds.
 CMD_unguided = $(BIN)/render $(SCENE) -o $(OUT)/unguided.exr --mode nee+bsdf --variance $(RENDER_FLAGS) $(COMMON)

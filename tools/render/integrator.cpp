@@ -298,9 +298,10 @@ double run_pilot(const Scene& scene, const Camera& camera, int width, int height
 }
 
 // The light tracer's pilot: `paths` light paths (indices from 2^62 on, apart from the image's); per pilot
-// pixel the sum and sum of squares of the luminance of their splats. Returns the wall seconds taken.
+// pixel the sum and sum of squares of the luminance of their splats, and in *total the luminance of all
+// splats (every pixel's: a small caustic can fall between pilot pixels). Returns the wall seconds taken.
 double run_light_pilot(const CausticTracer& tracer, int width, int height, uint64_t seed, uint64_t paths,
-                       std::vector<PilotPixel>& acc) {
+                       std::vector<PilotPixel>& acc, double* total) {
     const PilotGrid grid(width, height);
     acc.assign(grid.count(), PilotPixel{});
     std::vector<int32_t> slot(size_t(width) * size_t(height), -1);
@@ -313,8 +314,9 @@ double run_light_pilot(const CausticTracer& tracer, int width, int height, uint6
     // (A path that splats one pixel twice -- two of its vertices, rare -- counts as two paths here.)
     trace_light_paths(tracer, seed, uint64_t(1) << 62, paths,
                       [&](const CausticSplat& s) {
+                          const double v = luminance(s.value);
+                          *total += v;
                           if (const int32_t k = slot[s.pixel]; k >= 0) {
-                              const double v = luminance(s.value);
                               acc[size_t(k)].sum += v;
                               acc[size_t(k)].sum2 += v * v;
                           }
@@ -379,9 +381,10 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
     // through small glass objects are seen).
     std::vector<PilotPixel> lacc;
     uint64_t light_paths = 0;
+    double light_total = 0;
     if (light) {
         light_paths = std::max<uint64_t>(uint64_t(width) * uint64_t(height) / 4, 1 << 17);
-        const double t = run_light_pilot(*light, width, height, seed, light_paths, lacc);
+        const double t = run_light_pilot(*light, width, height, seed, light_paths, lacc, &light_total);
         total += t;
         d.light_weighed = true;
         d.light_pilot_paths = light_paths;
@@ -398,7 +401,7 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
     const PilotGrid grid(width, height);
     const int px = grid.px, py = grid.py;
     std::vector<double> rel(n_cand, 0.0), rel_rest(n_cand, 0.0);
-    double rel_light = 0, light_mean = 0, camera_mean = 0;
+    double rel_light = 0, camera_mean = 0;
     auto var = [](double sum, double sum2, double n) { return std::max(0.0, (sum2 - sum * sum / n) / (n - 1)); };
     for (int j = 0; j < py; ++j)
         for (int i = 0; i < px; ++i) {
@@ -420,13 +423,15 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
                 // noise per camera sample is the per-path variance over that many.
                 const PilotPixel& a = lacc[k];
                 rel_light += var(a.sum, a.sum2, double(light_paths)) / (double(width) * height) / norm;
-                light_mean += a.sum / double(light_paths);
             }
         }
     const double pixels = double(std::max<size_t>(1, grid.count())), n = pixels * spp;
     d.pilot_seconds = total;
     d.pilot_spp = spp;
     d.light_rel_variance = rel_light / pixels;
+    // Every light path estimates the whole image: its mean pixel is the splats' total over paths and pixels.
+    const double light_mean = light ? light_total / double(light_paths) / (double(width) * height) : 0.0;
+    camera_mean /= pixels;
     d.light_share = camera_mean > 0 ? light_mean / camera_mean : 0.0;
     const double t_light = d.light_seconds_per_path;
     // noise x time of each candidate without and (where weighed) with the light tracer; ratios against
