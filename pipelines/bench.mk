@@ -6,6 +6,7 @@
 #   make -f pipelines/bench.mk full MODES=nee+bsdf,auto   # the two modes the targets compare (~50 min)
 #   make -f pipelines/bench.mk references TIER=quick   # only the references
 #   make -f pipelines/bench.mk params PARAM_SCENE=cbox_kugeln   # parameter studies on one scene (~10 min)
+#   make -f pipelines/bench.mk quick MODES=nee+bsdf,auto ONLY='ring bidir' REPORT=quick-some   # some scenes
 #
 # References are unguided long renders (the path tracer alone, independent of the guiding code), kept
 # outside git in $(REF_DIR) with a manifest (scene, fingerprint, resolution, spp, seconds, command); make
@@ -48,7 +49,14 @@ REPEATS ?= 1
 # Settings passed to pipelines/guided.mk for the preprocessing (empty: its defaults).
 PIPELINE ?=
 
-RUNS := out/bench/$(TIER)
+# ONLY='name ...' restricts a tier to some scenes (their names above); REPORT names its runs folder and
+# report (docs/benchmarks/$(REPORT).md; default the tier's), so that a subset does not replace the tier's.
+ONLY ?=
+REPORT ?= $(TIER)
+ifneq ($(strip $(ONLY)),)
+SCENES_ALL := $(filter $(addsuffix :%,$(ONLY)),$(SCENES_ALL))
+endif
+RUNS := out/bench/$(REPORT)
 name_of = $(word 1,$(subst :, ,$(1)))
 path_of = $(SEEDS)/$(word 2,$(subst :, ,$(1)))
 # A scene's reference spp: REF_SPP_<name> where set (a scene whose reference needs more), else REF_SPP.
@@ -76,9 +84,9 @@ params: $(call ref_of,$(PARAM_SCENE))
 runs: $(RESULTS)
 
 # The settings given on make's command line, quoted in the report's command.
-GIVEN := $(foreach v,SCALE BUDGETS MODES REF_SPP REPEATS PIPELINE,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
+GIVEN := $(foreach v,SCALE BUDGETS MODES REF_SPP REPEATS PIPELINE ONLY REPORT,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
 report: $(RESULTS)
-	python3 scripts/bench.py report --tier $(TIER) --runs $(RUNS) -o docs/benchmarks/$(TIER).md --assets docs/benchmarks/$(TIER) $(GIVEN)
+	python3 scripts/bench.py report --tier $(TIER) --runs $(RUNS) -o docs/benchmarks/$(REPORT).md --assets docs/benchmarks/$(REPORT) $(GIVEN)
 
 define scene_rules
 $(call ref_of,$(call name_of,$(1))): $(call path_of,$(1))
