@@ -106,4 +106,12 @@ Vec3 offset_ray_origin(Vec3 p, Vec3 ng, Vec3 w, float magnitude) {
     return p + n * (kUlps * 0x1p-23f * m);
 }
 
+bool has_specular_surfaces(const Scene& scene) {
+    for (const Mesh& m : scene.meshes)
+        if (bsdf_has_delta_lobe(scene.bsdfs[m.bsdf])) return true;
+    for (const Sphere& s : scene.spheres)
+        if (bsdf_has_delta_lobe(scene.bsdfs[s.bsdf])) return true;
+    return false;
+}
+
 }  // namespace iris

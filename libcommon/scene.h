@@ -135,6 +135,10 @@ struct Scene {
 // position (tests/stress/test_ray_offsets.cpp).
 Vec3 offset_ray_origin(Vec3 p, Vec3 ng, Vec3 w, float magnitude = 0.0f);
 
+// Whether some shape has a Dirac lobe (bsdf_has_delta_lobe): the only surfaces where light can take a
+// specular bounce (a caustic).
+bool has_specular_surfaces(const Scene& scene);
+
 // A ray leaving a surface hit in direction w.
 inline Ray spawn_ray(const SurfaceHit& h, Vec3 w) {
     Ray r;

@@ -22,12 +22,7 @@ bool CausticTracer::possible(const Scene& scene) {
     bool area_light = false;
     for (const Light& l : scene.lights)
         area_light = area_light || l.type == LightType::AreaMesh || l.type == LightType::AreaSphere;
-    if (!area_light) return false;
-    for (const Mesh& m : scene.meshes)
-        if (bsdf_has_delta_lobe(scene.bsdfs[m.bsdf])) return true;
-    for (const Sphere& s : scene.spheres)
-        if (bsdf_has_delta_lobe(scene.bsdfs[s.bsdf])) return true;
-    return false;
+    return area_light && has_specular_surfaces(scene);
 }
 
 // Connects the light path's vertex `hit` (reached from direction w_light, pointing back along the

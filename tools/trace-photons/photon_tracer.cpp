@@ -143,12 +143,4 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
     return photons;
 }
 
-bool has_specular_surfaces(const Scene& scene) {
-    for (const Mesh& m : scene.meshes)
-        if (bsdf_has_delta_lobe(scene.bsdfs[m.bsdf])) return true;
-    for (const Sphere& s : scene.spheres)
-        if (bsdf_has_delta_lobe(scene.bsdfs[s.bsdf])) return true;
-    return false;
-}
-
 }  // namespace iris

@@ -31,8 +31,7 @@ struct PhotonStats {
 // Traces opts.paths photon paths. Deterministic for a seed, whatever the thread count.
 PhotonMap trace_photons(const Scene& scene, const PhotonOptions& opts, PhotonStats* stats);
 
-// Whether some shape of the scene has a Dirac lobe (bsdf_has_delta_lobe): without one no photon is
-// ever flagged caustic, and the caustic share is 0 whatever the photons.
-bool has_specular_surfaces(const Scene& scene);
+// (has_specular_surfaces, libcommon/scene.h: without such a surface no photon is ever flagged caustic,
+// and the caustic share is 0 whatever the photons.)
 
 }  // namespace iris
