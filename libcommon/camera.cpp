@@ -31,4 +31,14 @@ Vec3 camera_direction(const Camera& c, float fx, float fy, int width, int height
     return normalize(c.forward + c.right * x + c.up * y);
 }
 
+bool camera_film_position(const Camera& c, Vec3 d, int width, int height, float* fx, float* fy, float* cos_axis) {
+    const float z = dot(d, c.forward);
+    if (!(z > 0)) return false;
+    const float len = length(d);
+    *cos_axis = z / len;
+    *fx = (dot(d, c.right) / z / c.tan_half_x + 1) * 0.5f * float(width);
+    *fy = (1 - dot(d, c.up) / z / c.tan_half_y) * 0.5f * float(height);
+    return true;
+}
+
 }  // namespace iris

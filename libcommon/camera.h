@@ -28,4 +28,9 @@ void camera_prepare(Camera& c, int width, int height);
 // (distance along the direction = clip / cos to the view axis, as Mitsuba).
 Vec3 camera_direction(const Camera& c, float fx, float fy, int width, int height);
 
+// The inverse: film position (fx, fy) in pixels of the world direction d from the camera origin, and
+// the cosine of d to the view axis; false if d points behind the camera. Film positions outside
+// [0, width) x [0, height) are returned as they are (a filter reaches across the image's edge).
+bool camera_film_position(const Camera& c, Vec3 d, int width, int height, float* fx, float* fy, float* cos_axis);
+
 }  // namespace iris

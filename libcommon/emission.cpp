@@ -1,5 +1,8 @@
 #include "libcommon/emission.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "libcommon/sampling.h"
 #include "libcommon/scene.h"
 
@@ -59,6 +62,30 @@ bool sample_emission(const Scene& scene, float u_sel, Vec2 u_pos, Vec2 u_dir, Em
         }
     }
     return false;
+}
+
+bool scatter_light_path(const SurfaceHit& hit, const Bsdf& bsdf, Vec3 w_back, int depth, int rr_depth, Rng& rng,
+                        RGB* beta, Vec3* wo_world, bool* delta) {
+    const Vec3 wi = hit.frame.to_local(w_back);
+    BsdfSample bs;
+    const float uc = rng.next_float();
+    const Vec2 u{rng.next_float(), rng.next_float()};
+    if (!bsdf_sample(bsdf, wi, u, uc, &bs, TransportMode::Importance)) return false;
+    const Vec3 wo = hit.frame.to_world(bs.wo);
+    if (dot(wo, hit.ng) * bs.wo.z <= 0 || dot(w_back, hit.ng) * wi.z <= 0) return false;
+    // Importance transport picks up |wi.ns||wo.ng| / (|wi.ng||wo.ns|), so that power is not created at
+    // smooth-shaded edges.
+    const float corr = std::abs(wi.z * dot(wo, hit.ng)) / std::abs(dot(w_back, hit.ng) * bs.wo.z);
+    RGB next = *beta * bs.weight * (std::isfinite(corr) ? corr : 0.0f);
+    if (depth >= rr_depth) {
+        const float q = std::min(1.0f, max_component(next) / std::max(max_component(*beta), 1e-30f));
+        if (!(rng.next_float() < q)) return false;
+        next /= q;
+    }
+    *beta = next;
+    *wo_world = wo;
+    *delta = bs.delta;
+    return true;
 }
 
 }  // namespace iris

@@ -76,8 +76,13 @@ Vec2 FilterSampler::sample(Vec2 u, float* weight) const {
 
 Film::Film(int w, int h)
     : width(w), height(h), sum_wl(size_t(w) * h * 3, 0.0), sum_wl2(size_t(w) * h * 3, 0.0),
-      sum_w(size_t(w) * h, 0.0), count(size_t(w) * h, 0), light_sum(size_t(w) * h * 3, 0.0),
-      light_sum2(size_t(w) * h * 3, 0.0) {}
+      sum_w(size_t(w) * h, 0.0), count(size_t(w) * h, 0) {}
+
+void Film::enable_light(double paths_per_sample) {
+    light_paths_per_sample = paths_per_sample;
+    light_sum.assign(size_t(width) * height * 3, 0.0);
+    light_sum2.assign(size_t(width) * height * 3, 0.0);
+}
 
 RGB Film::value(int x, int y) const {
     size_t i = size_t(y) * width + x;
@@ -87,7 +92,8 @@ RGB Film::value(int x, int y) const {
     // image, so after count[i] samples the light tracer's estimate is its sum over that many paths.
     const double inv_light = light_paths_per_sample > 0 ? 1.0 / (light_paths_per_sample * count[i]) : 0.0;
     RGB v;
-    for (int c = 0; c < 3; ++c) v[c] = float(sum_wl[3 * i + c] * inv + light_sum[3 * i + c] * inv_light);
+    for (int c = 0; c < 3; ++c)
+        v[c] = float(sum_wl[3 * i + c] * inv + (inv_light > 0 ? light_sum[3 * i + c] * inv_light : 0.0));
     return v;
 }
 

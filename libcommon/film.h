@@ -43,8 +43,10 @@ struct Film {
     std::vector<uint32_t> count;   // samples taken
     // Light-traced contributions (render's caustic light tracer), splatted through the filter: their sum
     // and sum of squares per pixel; the image adds sum / (light paths per sample x samples per pixel).
+    // Allocated by enable_light only (48 bytes a pixel that a render without light tracing does not need).
     std::vector<double> light_sum, light_sum2;
     double light_paths_per_sample = 0;  // 0: no light tracing
+    void enable_light(double paths_per_sample);
 
     Film(int w, int h);
     void add(int x, int y, RGB l, float weight) {

@@ -7,6 +7,7 @@
 
 #include <cmath>
 
+#include "libcommon/camera.h"
 #include "libcommon/film.h"
 #include "libcommon/rng.h"
 
@@ -78,7 +79,7 @@ TEST(FilterDensity, BoxIsOneInsideThePixel) {
 // so far (light_paths_per_sample per sample pass); its variance adds the light paths' own.
 TEST(FilmLight, ValueAddsTheLightSumOverAllPathsTraced) {
     Film film(2, 1);
-    film.light_paths_per_sample = 4;
+    film.enable_light(4);
     for (int s = 0; s < 2; ++s) film.add(0, 0, RGB(1.0f), 1.0f);
     // 8 light paths in two passes: three of them splat pixel 0 (the others contribute zero).
     film.add_light(0, RGB(2.0f));
@@ -88,4 +89,24 @@ TEST(FilmLight, ValueAddsTheLightSumOverAllPathsTraced) {
     // Light variance of the mean over 8 paths: (E[c^2] - E[c]^2) / 8 with E[c] = 1, E[c^2] = 24 / 8.
     EXPECT_NEAR(film.variance(0, 0).g, (3.0 - 1.0) / 8, 1e-6);
     EXPECT_FLOAT_EQ(film.value(1, 0).r, 0.0f);  // no camera sample yet: nothing
+}
+
+// The light tracer projects points onto the film with camera_film_position: the inverse of
+// camera_direction, for film positions inside the image and across its edge.
+TEST(CameraFilmPosition, InvertsCameraDirection) {
+    Camera c;
+    c.to_world = Transform::look_at(Vec3(1, 2, 3), Vec3(0, 0, 0), Vec3(0, 0, 1));
+    c.fov_degrees = 50;
+    camera_prepare(c, 64, 48);
+    for (float fx : {-1.5f, 0.0f, 10.25f, 63.9f, 65.0f})
+        for (float fy : {-0.5f, 7.5f, 47.9f}) {
+            const Vec3 d = camera_direction(c, fx, fy, 64, 48);
+            float gx, gy, cos_axis;
+            ASSERT_TRUE(camera_film_position(c, d * 3.0f, 64, 48, &gx, &gy, &cos_axis));
+            EXPECT_NEAR(gx, fx, 1e-3f);
+            EXPECT_NEAR(gy, fy, 1e-3f);
+            EXPECT_NEAR(cos_axis, dot(d, c.forward), 1e-6f);
+        }
+    float gx, gy, cos_axis;
+    EXPECT_FALSE(camera_film_position(c, -c.forward, 64, 48, &gx, &gy, &cos_axis));
 }

@@ -41,15 +41,10 @@ void CausticTracer::splat(const SurfaceHit& hit, Vec3 w_light, RGB beta, std::ve
     const Vec3 w_cam = to_cam / dist;
     const Vec3 wi = hit.frame.to_local(w_cam);
     if (wi.z == 0) return;
-    const float cos_fwd = -dot(w_cam, camera_.forward);
-    if (!(cos_fwd > 0)) return;
+    float fx, fy, cos_fwd;
+    if (!camera_film_position(camera_, -w_cam, width_, height_, &fx, &fy, &cos_fwd)) return;
     const float depth_along_axis = dist * cos_fwd;
     if (depth_along_axis < camera_.near_clip || depth_along_axis > camera_.far_clip) return;
-    // Film position, the inverse of camera_direction.
-    const Vec3 dir = -w_cam;
-    const float px = dot(dir, camera_.right) / cos_fwd, py = dot(dir, camera_.up) / cos_fwd;
-    const float fx = (px / camera_.tan_half_x + 1) * 0.5f * float(width_);
-    const float fy = (1 - py / camera_.tan_half_y) * 0.5f * float(height_);
     const float r = filter_.radius();
     // Pixels whose filter reaches u: centres x + 0.5 within r of fx.
     const int x0 = std::max(0, int(std::ceil(fx - r - 0.5f))), x1 = std::min(width_ - 1, int(std::floor(fx + r - 0.5f)));
@@ -104,22 +99,9 @@ bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSpla
         // Only a Dirac event continues the chain: any other makes x1 a later vertex of a path that is not
         // in class C (the path tracer's).
         if (!bsdf_has_delta_lobe(bsdf)) break;
-        BsdfSample bs;
-        const float uc = rng.next_float();
-        const Vec2 u{rng.next_float(), rng.next_float()};
-        if (!bsdf_sample(bsdf, wi, u, uc, &bs, TransportMode::Importance) || !bs.delta) break;
-        const Vec3 wo_world = hit.frame.to_world(bs.wo);
-        if (dot(wo_world, hit.ng) * bs.wo.z <= 0 || dot(w_light, hit.ng) * wi.z <= 0) break;
-        // Adjoint BSDF with shading normals, as the photon tracer (Veach 1997, 5.3).
-        const float corr = std::abs(wi.z * dot(wo_world, hit.ng)) / std::abs(dot(w_light, hit.ng) * bs.wo.z);
-        RGB next = beta * bs.weight * (std::isfinite(corr) ? corr : 0.0f);
-        if (depth >= rr_depth_) {
-            // Total internal reflection can keep a path inside glass: roulette on the throughput's ratio.
-            const float q = std::min(1.0f, max_component(next) / std::max(max_component(beta), 1e-30f));
-            if (!(rng.next_float() < q)) break;
-            next /= q;
-        }
-        beta = next;
+        Vec3 wo_world;
+        bool delta;
+        if (!scatter_light_path(hit, bsdf, w_light, depth, rr_depth_, rng, &beta, &wo_world, &delta) || !delta) break;
         if (is_black(beta)) break;
         ray = spawn_ray(hit, wo_world);
     }

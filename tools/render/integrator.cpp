@@ -604,7 +604,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         light_paths_per_pixel > 0
             ? std::max<uint64_t>(1, uint64_t(std::llround(light_paths_per_pixel * double(width) * double(height))))
             : 0;
-    film.light_paths_per_sample = double(light_paths_per_sample);
+    if (light_paths_per_sample > 0) film.enable_light(double(light_paths_per_sample));
     ps.light_traced_caustics = light_paths_per_sample > 0;
     Progress progress("render", timed ? uint64_t(opt.time * 1000) : uint64_t(target_spp) * tile_count, opt.quiet);
 

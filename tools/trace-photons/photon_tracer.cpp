@@ -56,26 +56,10 @@ void trace_one(const Scene& scene, const PhotonOptions& o, uint64_t index, std::
                            uint8_t(std::min(depth - 1, 255)), uint8_t(after_delta)});
         }
         if (o.max_depth >= 0 && depth == o.max_depth) return;
-        Vec3 wi = hit.frame.to_local(wi_world);
-        BsdfSample bs;
-        float uc = rng.next_float();
-        Vec2 u{rng.next_float(), rng.next_float()};
-        if (!bsdf_sample(bsdf, wi, u, uc, &bs, TransportMode::Importance)) return;
-        Vec3 wo_world = hit.frame.to_world(bs.wo);
-        // Light must not cross the true surface on the side the shading normal claims.
-        if (dot(wo_world, hit.ng) * bs.wo.z <= 0 || dot(wi_world, hit.ng) * wi.z <= 0) return;
-        // Adjoint BSDF with shading normals (Veach 1997, 5.3): importance transport picks up
-        // |wi.ns||wo.ng| / (|wi.ng||wo.ns|) so photon power is not created at smooth-shaded edges.
-        float corr = std::abs(wi.z * dot(wo_world, hit.ng)) / std::abs(dot(wi_world, hit.ng) * bs.wo.z);
-        RGB next = beta * bs.weight * (std::isfinite(corr) ? corr : 0.0f);
-        if (depth >= o.rr_depth) {
-            // Keep photon powers even: survive with the ratio of new to old power (at most 1).
-            float q = std::min(1.0f, max_component(next) / std::max(max_component(beta), 1e-30f));
-            if (!(rng.next_float() < q)) return;
-            next /= q;
-        }
-        beta = next;
-        after_delta = after_delta || bs.delta;
+        Vec3 wo_world;
+        bool delta;
+        if (!scatter_light_path(hit, bsdf, wi_world, depth, o.rr_depth, rng, &beta, &wo_world, &delta)) return;
+        after_delta = after_delta || delta;
         if (!(max_component(beta) > cutoff)) return;
         ray = spawn_ray(hit, wo_world);
     }
