@@ -239,7 +239,7 @@ int Guide::lookup(Vec3 p, Vec3 n_side) const {
         // Every guided vertex reads the header (frame, alpha) and the row ends: start loading them now.
         const unsigned char* head = block(c);
         for (size_t off = 0; off < kHeader * sizeof(float) + packed_map::row_end_bytes(atlas_.resolution); off += 64)
-            __builtin_prefetch(head + off);
+            prefetch(head + off);
     }
     return c;
 }

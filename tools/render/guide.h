@@ -15,6 +15,7 @@
 #include "libcommon/math.h"
 #include "libcommon/packed_map.h"
 #include "libcommon/point_tree.h"
+#include "libcommon/rng.h"
 #include "libcommon/spheremap.h"
 
 namespace iris {
@@ -67,6 +68,11 @@ public:
     // (too few photons, or a predicted gain below min_gain) or none serves.
     // Starts loading the cache's sampling table into the CPU cache.
     int lookup(Vec3 p, Vec3 n_side) const;
+    // Starts loading the grid slots that lookup(p, ...) probes (p's cells in both grids).
+    void prefetch_lookup(Vec3 p) const {
+        fine_.prefetch(p);
+        coarse_.prefetch(p);
+    }
     // Which of the six axis directions (+x, -x, +y, -y, +z, -z: 0..5) is nearest n.
     static int normal_class(Vec3 n) {
         const float ax = std::abs(n.x), ay = std::abs(n.y), az = std::abs(n.z);
@@ -136,6 +142,10 @@ private:
         }
         // The slot of p's cell, or null where p's cell is not in the grid.
         const Slot* find(Vec3 p) const;
+        void prefetch(Vec3 p) const {
+            int64_t x, y, z;
+            if (!slots.empty() && cell_of(p, &x, &y, &z)) iris::prefetch(&slots[mix64(key(x, y, z)) & (slots.size() - 1)]);
+        }
     };
     // Fills g with cells of width `cell` covering the box of half-width reach[i] around every claimant i,
     // each with its answers.
@@ -153,11 +163,9 @@ private:
     // in huge pages where the system allows (random access to megabytes: every lookup would otherwise
     // also miss the TLB):
     //   [header: the cache's frame s, t, n (9 floats), alpha, padded to 64 bytes][its map, packed
-    //    (libcommon/packed_map.h): row ends, then one byte per texel]
+    //    (libcommon/packed_map.h): row ends, then each row's cumulative texel counts]
     // The header's line and the row ends are what every guided vertex needs (alpha 1 = not guiding),
-    // adjacent so that they load together; a density or a sample then reads one row of codes. The
-    // packed map is a quarter of the atlas's float cdf (the memory, not the speed, is what that buys:
-    // packed_map.h has the measurements).
+    // adjacent so that they load together; a density or a sample then reads one row's counts.
     static constexpr size_t kHeader = 16, kAlpha = 9;  // in floats
     struct FreeTable {
         void operator()(unsigned char* p) const;

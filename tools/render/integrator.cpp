@@ -71,6 +71,9 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             break;
         }
         Vec3 wi_world = -ray.d;
+        // A guided vertex's first load, its grid slot, starts here (its emission and light sample run
+        // meanwhile).
+        if (guide && guided_vertices < ps.guide_vertices) guide->prefetch_lookup(hit.p);
         // Emission: paths do not end at lights (an emitter may also reflect, DESIGN 4.8).
         if (hit.light >= 0) {
             const Light& light = scene.lights[hit.light];
