@@ -90,13 +90,16 @@ inline uint32_t interval(const uint16_t* ends, int i, uint32_t* lo) {
     return uint32_t(ends[i]) - *lo;
 }
 
-// Density per steradian of texel k (0 <= k < R * R); per_sr = R * R / (4 pi).
-inline float texel_pdf(const unsigned char* map, int R, int k, float per_sr) {
-    const int j = k / R;
+// Density per steradian of texel (i, j) (column i, row j, both in [0, R)); per_sr = R * R / (4 pi).
+inline float texel_pdf(const unsigned char* map, int R, int i, int j, float per_sr) {
     uint32_t lo;
     const uint32_t row = interval(row_end(map), j, &lo);
     if (row == 0) return 0.0f;
-    return density(row, interval(texel_end(map, R, j), k - j * R, &lo), per_sr);
+    return density(row, interval(texel_end(map, R, j), i, &lo), per_sr);
+}
+// The same for texel k = j R + i.
+inline float texel_pdf(const unsigned char* map, int R, int k, float per_sr) {
+    return texel_pdf(map, R, k % R, k / R, per_sr);
 }
 
 // u in [0, 1) as the map uses it (NaN and out-of-range values clamped), and its threshold in counts.
@@ -136,8 +139,9 @@ inline Vec3 sample(const unsigned char* map, int R, Vec2 u, float per_sr, float*
     const Vec3 w = square_to_sphere({(float(i) + fx) * inv_r, (float(j) + fy) * inv_r});
     const float m = SphereDistribution::kEdgeMargin * float(R);  // the margin in texel units
     const bool near_edge = fx < m || fx > 1.0f - m || fy < m || fy > 1.0f - m;
-    const int k = j * R + i, density_texel = near_edge ? sphere_texel_of(w, R) : k;
-    *pdf = density_texel == k ? density(row, texel, per_sr) : texel_pdf(map, R, density_texel, per_sr);
+    int di = i, dj = j;  // the texel whose density applies
+    if (near_edge) sphere_texel_of(w, R, &di, &dj);
+    *pdf = di == i && dj == j ? density(row, texel, per_sr) : texel_pdf(map, R, di, dj, per_sr);
     return w;
 }
 

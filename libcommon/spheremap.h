@@ -46,27 +46,25 @@ namespace iris {
 // rounding in a few multiply-adds. Both are within 1.5e-7 absolute of double libm (2-3 float ULPs of 1;
 // tested), far below the round-trip tolerance the map's contract states (1e-6 in the square).
 
+// The polynomials are evaluated in Estrin's scheme (pairs of terms, then pairs of pairs): without FMA
+// (the baseline x86-64 build) each Horner step is a dependent multiply and add, and a density lookup
+// waits on this chain.
+
 // atan(t) * 2 / pi for t in [0, 1]: t P(t^2), P a degree-7 least-squares fit on Chebyshev nodes
 // (truncation error 2.7e-8; exact 0 at t = 0, 0.5 at t = 1 to 3e-8).
 inline float atan_unit_fraction(float t) {
-    const float s = t * t;
-    float p = -2.522942766e-03f;
-    p = p * s + 1.370012070e-02f;
-    p = p * s - 3.526799536e-02f;
-    p = p * s + 6.113494814e-02f;
-    p = p * s - 8.844345465e-02f;
-    p = p * s + 1.269625390e-01f;
-    p = p * s - 2.121825335e-01f;
-    p = p * s + 6.366192981e-01f;
-    return t * p;
+    const float s = t * t, s2 = s * s, s4 = s2 * s2;
+    const float q0 = 6.366192981e-01f - 2.121825335e-01f * s, q1 = 1.269625390e-01f - 8.844345465e-02f * s;
+    const float q2 = 6.113494814e-02f - 3.526799536e-02f * s, q3 = 1.370012070e-02f - 2.522942766e-03f * s;
+    return t * ((q0 + q1 * s2) + (q2 + q3 * s2) * s4);
 }
 
 // cos and sin of (1 + t) pi / 4 for t in [-1, 1] (the quadrant's azimuth), from the Taylor series of
 // sin x and cos x at x = t pi / 4 in [-pi/4, pi/4] (truncation below 2e-9) and the angle sum with pi/4.
 inline void quadrant_cos_sin(float t, float* c, float* s) {
-    const float x = t * (0.25f * kPi), x2 = x * x;
-    const float sx = x * (1.0f + x2 * (-1.0f / 6 + x2 * (1.0f / 120 + x2 * (-1.0f / 5040 + x2 * (1.0f / 362880)))));
-    const float cx = 1.0f + x2 * (-0.5f + x2 * (1.0f / 24 + x2 * (-1.0f / 720 + x2 * (1.0f / 40320 - x2 * (1.0f / 3628800)))));
+    const float x = t * (0.25f * kPi), x2 = x * x, x4 = x2 * x2, x8 = x4 * x4;
+    const float sx = x * ((1.0f - x2 * (1.0f / 6)) + (1.0f / 120 - x2 * (1.0f / 5040)) * x4 + x8 * (1.0f / 362880));
+    const float cx = (1.0f - 0.5f * x2) + (1.0f / 24 - x2 * (1.0f / 720)) * x4 + (1.0f / 40320 - x2 * (1.0f / 3628800)) * x8;
     constexpr float kSqrtHalf = 0.70710678118654752f;
     *c = (cx - sx) * kSqrtHalf;
     *s = (cx + sx) * kSqrtHalf;
@@ -129,12 +127,16 @@ inline float sphere_texel_solid_angle(int R) { return 4.0f * kPi / float(R * R);
 // Flat index j R + i of the texel containing direction `w` (unit). Directions exactly on a texel
 // edge go to the texel above/right of the edge (the one whose half-open square contains the point);
 // u = 1 or v = 1 go to the last texel. Robust for every finite unit w, seams and poles included.
-inline int sphere_texel_of(Vec3 w, int R) {
+inline void sphere_texel_of(Vec3 w, int R, int* i, int* j) {
     const Vec2 uv = sphere_to_square(w);
     const float fx = uv.x * float(R), fy = uv.y * float(R);
     // `>= 0` is false for NaN, so a NaN direction lands in texel 0 instead of undefined behaviour.
-    const int i = fx >= 0.0f ? std::min(int(fx), R - 1) : 0;
-    const int j = fy >= 0.0f ? std::min(int(fy), R - 1) : 0;
+    *i = fx >= 0.0f ? std::min(int(fx), R - 1) : 0;
+    *j = fy >= 0.0f ? std::min(int(fy), R - 1) : 0;
+}
+inline int sphere_texel_of(Vec3 w, int R) {
+    int i, j;
+    sphere_texel_of(w, R, &i, &j);
     return j * R + i;
 }
 

@@ -93,11 +93,18 @@ public:
 
     // The same in two steps, so that the integrator can start loading the memory a density needs
     // before it traces the shadow ray and read it after: texel of w in cache c's map, its density.
-    int texel(int c, Vec3 w) const {
-        return sphere_texel_of(frame(c).to_local(w), atlas_.resolution);
+    struct Texel {
+        int i, j;  // column and row
+    };
+    Texel texel(int c, Vec3 w) const {
+        Texel t;
+        sphere_texel_of(frame(c).to_local(w), atlas_.resolution, &t.i, &t.j);
+        return t;
     }
+    float texel_pdf(int c, Texel t) const { return packed_map::texel_pdf(map(c), atlas_.resolution, t.i, t.j, per_sr_); }
+    // Of texel k = j R + i.
     float texel_pdf(int c, int k) const { return packed_map::texel_pdf(map(c), atlas_.resolution, k, per_sr_); }
-    void prefetch_texel(int c, int k) const { packed_map::prefetch_row(map(c), atlas_.resolution, k / atlas_.resolution); }
+    void prefetch_texel(int c, Texel t) const { packed_map::prefetch_row(map(c), atlas_.resolution, t.j); }
     // Starts loading the row of cache c's map that sample(c, u, ...) will search.
     void prefetch_sample(int c, Vec2 u) const {
         packed_map::prefetch_row(map(c), atlas_.resolution, packed_map::row_of(map(c), atlas_.resolution, u.x));

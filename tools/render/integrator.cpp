@@ -158,7 +158,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 RGB f = bsdf_eval(bsdf, wi, wo);
                 if (!is_black(f)) {
                     // The cache density of the light direction: its memory loads during the shadow ray.
-                    int nee_texel = -1;
+                    Guide::Texel nee_texel{};
                     if (cache >= 0 && !ls.delta) {
                         nee_texel = guide->texel(cache, ls.wi);
                         guide->prefetch_texel(cache, nee_texel);
