@@ -145,11 +145,34 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             return std::max(0.0f, p_bsdf + (1 - alpha) * (g * p_cache - q));
         };
         const bool use_cache = cache >= 0 && uc >= 1 - k_cache;
-        bool row_started = !use_cache;
-        auto start_row = [&] {  // once, as late as possible before the shadow ray or the continuation
-            if (!row_started) guide->prefetch_sample(cache, u);
-            row_started = true;
-        };
+        // Where a cache guides, the rows of its map that the vertex will read start loading here, so
+        // that they arrive during NEE's shadow ray: the light direction's, and the continuation's (the
+        // row the cache sample searches, or the BSDF sample's: the BSDF technique draws its sample now,
+        // from random numbers already drawn, so nothing else changes).
+        Guide::Texel nee_texel{}, bsdf_texel{};
+        BsdfSample bs_guided;
+        bool bs_guided_ok = false;
+        Vec3 bs_guided_world;
+        if (cache >= 0) {
+            if (light_found && !ls.delta) {
+                nee_texel = guide->texel(cache, ls.wi);
+                guide->prefetch_texel(cache, nee_texel);
+            }
+            if (use_cache) {
+                guide->prefetch_sample(cache, u);
+            } else {
+                // uc is remapped to stay uniform for the BSDF's own lobe choice: below 1 - g (the coat)
+                // as it is, the rest of [1 - g, 1 - k_cache) stretched onto [1 - g, 1).
+                const float keep = 1 - g;
+                const float uc_bsdf = uc < keep ? uc : std::min(keep + (uc - keep) / alpha, 0x1.fffffep-1f);
+                bs_guided_ok = bsdf_sample(bsdf, wi, u, uc_bsdf, &bs_guided);
+                if (bs_guided_ok && !bs_guided.delta) {
+                    bs_guided_world = hit.frame.to_world(bs_guided.wo);
+                    bsdf_texel = guide->texel(cache, bs_guided_world);
+                    guide->prefetch_texel(cache, bsdf_texel);
+                }
+            }
+        }
 
         // Next-event estimation, MIS-weighted against the continuation's full mixture density.
         if (light_found) {
@@ -157,13 +180,6 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             if (consistent_side(ls.wi, hit.ng, wo.z)) {
                 RGB f = bsdf_eval(bsdf, wi, wo);
                 if (!is_black(f)) {
-                    // The cache density of the light direction: its memory loads during the shadow ray.
-                    Guide::Texel nee_texel{};
-                    if (cache >= 0 && !ls.delta) {
-                        nee_texel = guide->texel(cache, ls.wi);
-                        guide->prefetch_texel(cache, nee_texel);
-                    }
-                    start_row();
                     Vec3 from = offset_ray_origin(hit.p, hit.ng, ls.wi, hit.magnitude);
                     bool blocked;
                     ++counters.rays;
@@ -188,7 +204,6 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         }
 
         // Continue the path: BSDF sampling, or (guided) a one-sample choice between BSDF and cache.
-        start_row();
         Vec3 wo_world;
         if (cache < 0) {
             BsdfSample bs;
@@ -200,14 +215,11 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             prev_pdf = bs.pdf;
             prev_delta = bs.delta;
         } else if (!use_cache) {
-            // BSDF technique. uc is remapped to stay uniform for the BSDF's own lobe choice: below 1 - g
-            // (the coat) as it is, the rest of [1 - g, 1 - k_cache) stretched onto [1 - g, 1).
-            const float keep = 1 - g;
-            const float uc_bsdf = uc < keep ? uc : std::min(keep + (uc - keep) / alpha, 0x1.fffffep-1f);
-            BsdfSample bs;
-            if (!bsdf_sample(bsdf, wi, u, uc_bsdf, &bs)) break;
+            // BSDF technique (its sample drawn above).
+            if (!bs_guided_ok) break;
+            const BsdfSample& bs = bs_guided;
             const Vec3 wo = bs.wo;
-            wo_world = hit.frame.to_world(wo);
+            wo_world = bs.delta ? hit.frame.to_world(wo) : bs_guided_world;
             if (!consistent_side(wo_world, hit.ng, wo.z)) break;
             eta_scale *= bs.eta * bs.eta;
             if (bs.delta) {
@@ -216,7 +228,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 prev_pdf = bs.pdf;
                 prev_delta = true;
             } else {
-                const float p = mix_from(wo, bs.pdf, guide->pdf(cache, wo_world));
+                const float p = mix_from(wo, bs.pdf, guide->texel_pdf(cache, bsdf_texel));
                 if (!(p > 0)) break;
                 // f = weight * pdf of the BSDF's own sample (bsdf.h): no second evaluation of the BSDF.
                 beta *= bs.weight * (bs.pdf / p);
