@@ -103,10 +103,11 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // "outside" (sees none of it) would otherwise be decided by rounding.
         const Vec3 ref = offset_ray_origin(hit.p, hit.ng, wi_world, hit.magnitude);
 
-        // About half of a guided vertex's extra cost is memory latency (perf): deep vertices land anywhere
-        // in the scene, so p's grid cell and the cache's rows are rarely in the CPU's caches. The lookup
-        // starts loading the cache's header and row ends, NEE's BSDF evaluation runs meanwhile, and the
-        // continuation's row search then starts loading its row just before the shadow ray is traced.
+        // A guided vertex's loads are spread over its work (deep vertices land anywhere in the scene, so
+        // p's grid slot and the cache's map are rarely in the CPU's caches): the slot starts loading
+        // after the intersection (above) and is read after light sampling; the lookup starts loading the
+        // cache's header and row ends, read after NEE's BSDF evaluation; the rows of the map the vertex
+        // will read then start loading before NEE's shadow ray.
         const bool guided_here = guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf);
 
         // Random numbers in a fixed order: the continuation's, then the light's.
@@ -132,10 +133,17 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             ++counters.lookups;
             Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
             cache = guide->lookup(hit.p, n_side);
-            if (cache >= 0) {
-                alpha = ps.mode == GuideMode::NeeCache ? 0.0f : guide->bsdf_fraction(cache);
-                g = bsdf_guidable_share(bsdf, wi);
-            }
+        }
+        // NEE's BSDF value (the rest of NEE follows once the cache's rows are loading).
+        Vec3 wo_light;
+        RGB f_light(0.0f);
+        if (light_found) {
+            wo_light = hit.frame.to_local(ls.wi);
+            if (consistent_side(ls.wi, hit.ng, wo_light.z)) f_light = bsdf_eval(bsdf, wi, wo_light);
+        }
+        if (cache >= 0) {
+            alpha = ps.mode == GuideMode::NeeCache ? 0.0f : guide->bsdf_fraction(cache);
+            g = bsdf_guidable_share(bsdf, wi);
         }
         const float k_cache = (1 - alpha) * g;  // probability of the cache technique (0 unguided)
         auto mix_from = [&](Vec3 wo, float p_bsdf, float p_cache) {
@@ -154,7 +162,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         bool bs_guided_ok = false;
         Vec3 bs_guided_world;
         if (cache >= 0) {
-            if (light_found && !ls.delta) {
+            if (!is_black(f_light) && !ls.delta) {
                 nee_texel = guide->texel(cache, ls.wi);
                 guide->prefetch_texel(cache, nee_texel);
             }
@@ -166,8 +174,8 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 const float keep = 1 - g;
                 const float uc_bsdf = uc < keep ? uc : std::min(keep + (uc - keep) / alpha, 0x1.fffffep-1f);
                 bs_guided_ok = bsdf_sample(bsdf, wi, u, uc_bsdf, &bs_guided);
+                if (bs_guided_ok) bs_guided_world = hit.frame.to_world(bs_guided.wo);
                 if (bs_guided_ok && !bs_guided.delta) {
-                    bs_guided_world = hit.frame.to_world(bs_guided.wo);
                     bsdf_texel = guide->texel(cache, bs_guided_world);
                     guide->prefetch_texel(cache, bsdf_texel);
                 }
@@ -175,31 +183,25 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         }
 
         // Next-event estimation, MIS-weighted against the continuation's full mixture density.
-        if (light_found) {
-            Vec3 wo = hit.frame.to_local(ls.wi);
-            if (consistent_side(ls.wi, hit.ng, wo.z)) {
-                RGB f = bsdf_eval(bsdf, wi, wo);
-                if (!is_black(f)) {
-                    Vec3 from = offset_ray_origin(hit.p, hit.ng, ls.wi, hit.magnitude);
-                    bool blocked;
-                    ++counters.rays;
-                    if (std::isinf(ls.dist)) {
-                        Ray sr{from, ls.wi, 0.0f, kInf};
-                        blocked = scene.occluded(sr);
-                    } else {
-                        Vec3 to = ls.delta ? ls.p : offset_ray_origin(ls.p, ls.n, -ls.wi);
-                        blocked = scene.occluded(from, to);
-                    }
-                    if (!blocked) {
-                        float w = 1.0f;
-                        if (!ls.delta) {
-                            const float p_bsdf = bsdf_pdf(bsdf, wi, wo);
-                            const float p_mix = cache < 0 ? p_bsdf : mix_from(wo, p_bsdf, guide->texel_pdf(cache, nee_texel));
-                            w = power_heuristic(ls.pdf, p_mix);
-                        }
-                        L += beta * f * ls.radiance * (w / ls.pdf);
-                    }
+        if (!is_black(f_light)) {
+            Vec3 from = offset_ray_origin(hit.p, hit.ng, ls.wi, hit.magnitude);
+            bool blocked;
+            ++counters.rays;
+            if (std::isinf(ls.dist)) {
+                Ray sr{from, ls.wi, 0.0f, kInf};
+                blocked = scene.occluded(sr);
+            } else {
+                Vec3 to = ls.delta ? ls.p : offset_ray_origin(ls.p, ls.n, -ls.wi);
+                blocked = scene.occluded(from, to);
+            }
+            if (!blocked) {
+                float w = 1.0f;
+                if (!ls.delta) {
+                    const float p_bsdf = bsdf_pdf(bsdf, wi, wo_light);
+                    const float p_mix = cache < 0 ? p_bsdf : mix_from(wo_light, p_bsdf, guide->texel_pdf(cache, nee_texel));
+                    w = power_heuristic(ls.pdf, p_mix);
                 }
+                L += beta * f_light * ls.radiance * (w / ls.pdf);
             }
         }
 
@@ -219,7 +221,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             if (!bs_guided_ok) break;
             const BsdfSample& bs = bs_guided;
             const Vec3 wo = bs.wo;
-            wo_world = bs.delta ? hit.frame.to_world(wo) : bs_guided_world;
+            wo_world = bs_guided_world;
             if (!consistent_side(wo_world, hit.ng, wo.z)) break;
             eta_scale *= bs.eta * bs.eta;
             if (bs.delta) {
