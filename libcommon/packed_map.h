@@ -54,8 +54,8 @@ inline const uint16_t* texel_end(const unsigned char* map, int R, int j) {
 // R must be in [1, 256] (the rounding's error must fit the largest entry's counts).
 void encode(const float* pdf, int R, unsigned char* map);
 
-// How many of the n cumulative counts a[0..n) are <= t: for nondecreasing a ending above t, the index
-// of the first entry past t, i.e. the row (or texel) whose interval holds t.
+// How many of the n cumulative counts a[0..n) are <= t (t < 65536): for nondecreasing a ending above
+// t, the index of the first entry past t, i.e. the row (or texel) whose interval holds t.
 inline int count_at_or_below(const uint16_t* a, int n, uint32_t t) {
     int c = 0, r = 0;
 #if defined(__SSE2__)
@@ -101,7 +101,7 @@ inline float texel_pdf(const unsigned char* map, int R, int k, float per_sr) {
     return texel_pdf(map, R, k % R, k / R, per_sr);
 }
 
-// u in [0, 1) as the map uses it (NaN and out-of-range values clamped), and its threshold in counts.
+// u in [0, 1) as the map uses it (NaN and out-of-range values clamped).
 inline float clamp_unit(float u) { return !(u >= 0.0f) ? 0.0f : std::min(u, 0x1.fffffep-1f); }
 
 // The row that sample() picks for u.x, for prefetching.
