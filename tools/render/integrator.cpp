@@ -71,9 +71,12 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             break;
         }
         Vec3 wi_world = -ray.d;
+        const Bsdf& bsdf = scene.bsdfs[hit.bsdf];
+        const bool delta_only = bsdf_is_delta(bsdf);
+        const bool guided_here = guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf);
         // A guided vertex's first load, its grid slot, starts here (its emission and light sample run
         // meanwhile).
-        if (guide && guided_vertices < ps.guide_vertices) guide->prefetch_lookup(hit.p);
+        if (guided_here) guide->prefetch_lookup(hit.p);
         // Emission: paths do not end at lights (an emitter may also reflect, DESIGN 4.8).
         if (hit.light >= 0) {
             const Light& light = scene.lights[hit.light];
@@ -94,10 +97,8 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         }
         if (ps.max_depth >= 0 && depth >= ps.max_depth) break;
 
-        const Bsdf& bsdf = scene.bsdfs[hit.bsdf];
         Vec3 wi = hit.frame.to_local(wi_world);
         if (wi.z == 0) break;
-        const bool delta_only = bsdf_is_delta(bsdf);
         // Light sampling and its MIS density are evaluated from a point moved off the surface to the
         // side the path is on: on the surface of a sphere light itself, "inside" (sees all of it) and
         // "outside" (sees none of it) would otherwise be decided by rounding.
@@ -108,7 +109,6 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // after the intersection (above) and is read after light sampling; the lookup starts loading the
         // cache's header and row ends, read after NEE's BSDF evaluation; the rows of the map the vertex
         // will read then start loading before NEE's shadow ray.
-        const bool guided_here = guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf);
 
         // Random numbers in a fixed order: the continuation's, then the light's.
         const float uc = rng.next_float();
