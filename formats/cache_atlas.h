@@ -15,8 +15,9 @@ namespace iris {
 inline constexpr const char* kCacheAtlasFormat = "iris-cache-atlas";
 inline constexpr int kCacheAtlasVersion = 1;
 inline constexpr const char* kCacheAtlasMapping = "equal-area-octahedral";
-// Largest accepted map resolution (a 1024^2 map is 4 MiB per cache already).
-inline constexpr int kCacheAtlasMaxResolution = 1024;
+// Largest accepted map resolution: the renderer packs each map as 16-bit cumulative counts, whose
+// rounding bound holds up to 256 x 256 texels (libcommon/packed_map.h), and fill-caches writes no more.
+inline constexpr int kCacheAtlasMaxResolution = 256;
 
 // Caches as parallel arrays of size(); pdf and cdf hold size() rows of texels() values each.
 //

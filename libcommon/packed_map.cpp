@@ -34,7 +34,7 @@ void cumulative_counts(const double* m, int n, uint16_t* end) {
 }  // namespace
 
 void encode(const float* pdf, int R, unsigned char* map) {
-    if (R < 1 || R > 256) throw std::invalid_argument("packed map: resolution must be in [1, 256]");
+    if (R < 1 || R > kMaxResolution) throw std::invalid_argument("packed map: resolution must be in [1, 256]");
     std::memset(map, 0, bytes(R));
     const size_t N = size_t(R) * size_t(R);
     bool any = false;

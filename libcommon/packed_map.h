@@ -38,6 +38,8 @@
 namespace iris::packed_map {
 
 inline constexpr uint32_t kRowTotal = 65535;
+// Largest resolution R whose rounding error fits the largest entry's counts (see encode).
+inline constexpr int kMaxResolution = 256;
 
 inline size_t round_up64(size_t n) { return (n + 63) / 64 * 64; }
 inline size_t row_end_bytes(int R) { return round_up64(size_t(R) * sizeof(uint16_t)); }
@@ -51,7 +53,7 @@ inline const uint16_t* texel_end(const unsigned char* map, int R, int j) {
 
 // Writes the packed form of the density `pdf` (N = R * R non-negative finite values, per steradian or
 // any common scale) into `map` (bytes(R), 64-byte aligned). All-zero densities pack as uniform.
-// R must be in [1, 256] (the rounding's error must fit the largest entry's counts).
+// R must be in [1, kMaxResolution].
 void encode(const float* pdf, int R, unsigned char* map);
 
 // How many of the n cumulative counts a[0..n) are <= t (t < 65536): for nondecreasing a ending above

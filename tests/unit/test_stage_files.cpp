@@ -903,6 +903,18 @@ TEST(StageFileCacheAtlas, RefusesResolutionThatDoesNotMatchTheMaps) {
     expect_contains(e, "dataset 'pdf' has shape (4, 64), expected (n, 16)");
 }
 
+// The renderer packs maps up to 256 x 256 (libcommon/packed_map.h): a larger one is refused on reading,
+// naming the file, rather than failing later inside the guide.
+TEST(StageFileCacheAtlas, RefusesResolutionAboveWhatTheRendererPacks) {
+    TempDir dir;
+    std::string p = dir.file("atlas.h5");
+    write_cache_atlas(p, make_atlas(2, 4), kFingerprint, make_provenance());
+    edit_file(p, [](hid_t f) { set_int_attribute(f, "resolution", kCacheAtlasMaxResolution + 1); });
+    std::string e = error_of([&] { read_cache_atlas(p); });
+    expect_names_file(e, p);
+    expect_contains(e, "attribute 'resolution' is 257 (must be 1..256)");
+}
+
 TEST(StageFileCacheAtlas, RefusesUnknownMapping) {
     TempDir dir;
     std::string p = dir.file("atlas.h5");

@@ -20,7 +20,8 @@ namespace iris {
 CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, double diagonal, const FillOptions& o,
                        FillStats* stats) {
     if (o.k == 0) throw std::runtime_error("--k must be positive");
-    if (o.resolution < 1 || o.resolution > 256) throw std::runtime_error("--resolution must be in [1, 256]");
+    if (o.resolution < 1 || o.resolution > kCacheAtlasMaxResolution)
+        throw std::runtime_error("--resolution must be in [1, " + std::to_string(kCacheAtlasMaxResolution) + "]");
     if (!(o.max_radius > 0)) throw std::runtime_error("--max-radius must be positive");
     if (!(o.filter_sigma >= 0)) throw std::runtime_error("--filter-sigma must be >= 0");
     if (!(o.floor > 0 && o.floor <= 1)) throw std::runtime_error("--floor must be in (0, 1]");

@@ -36,6 +36,9 @@ const char* guide_mode_name(GuideMode m) {
     return "?";
 }
 
+static_assert(kCacheAtlasMaxResolution <= packed_map::kMaxResolution,
+              "every map an atlas may hold must pack (formats/cache_atlas.h, libcommon/packed_map.h)");
+
 namespace {
 // A cache serves points up to this many times its gather radius away: the photons it holds came from
 // that disc, so its directional distribution is representative there.
