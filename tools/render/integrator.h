@@ -122,6 +122,10 @@ inline constexpr float kDeepRouletteThreshold = 0.1f;
 struct PathCounters {
     uint64_t rays = 0;     // closest-hit and shadow rays
     uint64_t lookups = 0;  // vertices at which a cache was looked up (guided rendering)
+    // Light samples that reached a guided vertex's shadow test, and those unoccluded: whether the
+    // density of a light sample's direction is worth preparing before its shadow ray (trace_path).
+    uint64_t guided_shadow_tests = 0, guided_unoccluded = 0;
+    bool mostly_unoccluded() const { return 2 * guided_unoccluded >= guided_shadow_tests; }
 };
 
 // Guide only when the pilot predicts a clear win: the pilot is noisy, and losing is worse than not
