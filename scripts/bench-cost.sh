@@ -46,6 +46,30 @@ rays_table="$out/rays-table.md"
   echo "| scene | rays/sample unguided | rays: rr 0.1 / first / every | time per ray: rr 0.1 / first / every | lookups/sample: first / every |"
   echo "|---|---|---|---|---|"
 } > "$rays_table"
+# The third table (only where perf can sample the CPU clock): where the every-vertex setting's extra
+# time goes, by binary -- Embree's ray queries, iris's own code (the guide's lookups, densities and
+# samples, and the rest of the path tracer), everything else -- from one profiled render per setting
+# (seed 1). perf's counts include loading the scene and the atlas, which render's seconds exclude.
+have_perf=0
+if command -v perf > /dev/null && perf record -q -e cpu-clock -o /dev/null true > /dev/null 2>&1; then have_perf=1; fi
+perf_table="$out/perf-table.md"
+{
+  echo
+  echo "Where the every-vertex setting's extra time goes (\`perf record -e cpu-clock\`, one render per setting,"
+  echo "seed 1; CPU samples relative to all of the rr-0.1 render's): the extra samples in Embree, in iris's own"
+  echo "code and elsewhere, and Embree's samples per ray (every vertex / rr 0.1):"
+  echo
+  echo "| scene | extra samples | Embree | iris | other | Embree per ray |"
+  echo "|---|---|---|---|---|---|"
+} > "$perf_table"
+# Samples of a profiled render (args: OUT.exr, render arguments...): "total embree iris" on stdout.
+perf_split() {
+  local exr=$1; shift
+  perf record -q -e cpu-clock -F 2000 -o "$exr.perf" "$bin/render" "$@" -o "$exr" -q > /dev/null 2>&1
+  perf report -i "$exr.perf" --no-children --sort dso --stdio -n -g none 2>/dev/null |
+    awk '/^ +[0-9.]+%/ {t += $2; if ($3 ~ /^libembree/) e += $2; if ($3 == "render") r += $2} END {print t, e, r}'
+  rm -f "$exr.perf"
+}
 for s in "${scenes[@]}"; do
   name=$(basename "${s%.xml}")
   scene=$seeds/$s
@@ -76,8 +100,19 @@ for s in "${scenes[@]}"; do
   echo "$row" >> "$report"
   samples=$(python3 -c "print(${res/x/*} * $spp)")
   echo "| $name | $(per_sample ${rays[unguided]}) | $(ratio ${rays[rr01]} ${rays[unguided]}) / $(ratio ${rays[first]} ${rays[unguided]}) / $(ratio ${rays[every]} ${rays[unguided]}) | $(per_ray rr01) / $(per_ray first) / $(per_ray every) | $(per_sample ${lookups[first]}) / $(per_sample ${lookups[every]}) |" >> "$rays_table"
+  if [ $have_perf = 1 ]; then
+    read -r pt_rr pe_rr pr_rr < <(perf_split "$out/$name/perf-rr01.exr" "$scene" --spp "$spp" --resolution "$res" --seed 1 \
+      --mode nee+bsdf --rr-threshold 0.1)
+    read -r pt_ev pe_ev pr_ev < <(perf_split "$out/$name/perf-every.exr" "$scene" --spp "$spp" --resolution "$res" --seed 1 \
+      --mode nee+bsdf+cache --atlas "$atlas" --guide-vertices 0 --rr-threshold 0.1)
+    awk -v n="$name" -v tr="$pt_rr" -v er="$pe_rr" -v rr="$pr_rr" -v te="$pt_ev" -v ee="$pe_ev" -v re="$pr_ev" \
+      -v yr="${rays[rr01]}" -v ye="${rays[every]}" \
+      'BEGIN {printf "| %s | +%.2fx | +%.2fx | +%.2fx | +%.2fx | %.2fx |\n", n, (te - tr) / tr, (ee - er) / tr,
+              (re - rr) / tr, ((te - ee - re) - (tr - er - rr)) / tr, (ee / ye) / (er / yr)}' >> "$perf_table"
+  fi
   unset t rays lookups
 done
 cat "$rays_table" >> "$report"
 cat "$rays_table"
+if [ $have_perf = 1 ]; then cat "$perf_table" >> "$report"; cat "$perf_table"; fi
 echo "wrote $report"
