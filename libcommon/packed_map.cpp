@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace iris::packed_map {
@@ -34,7 +35,8 @@ void cumulative_counts(const double* m, int n, uint16_t* end) {
 }  // namespace
 
 void encode(const float* pdf, int R, unsigned char* map) {
-    if (R < 1 || R > kMaxResolution) throw std::invalid_argument("packed map: resolution must be in [1, 256]");
+    if (R < 1 || R > kMaxResolution)
+        throw std::invalid_argument("packed map: resolution must be in [1, " + std::to_string(kMaxResolution) + "]");
     std::memset(map, 0, bytes(R));
     const size_t N = size_t(R) * size_t(R);
     bool any = false;

@@ -48,16 +48,17 @@ rays_table="$out/rays-table.md"
 } > "$rays_table"
 # The third table (only where perf can sample the CPU clock): where the every-vertex setting's extra
 # time goes, by binary -- Embree's ray queries, iris's own code (the guide's lookups, densities and
-# samples, and the rest of the path tracer), everything else -- from one profiled render per setting
-# (seed 1). perf's counts include loading the scene and the atlas, which render's seconds exclude.
+# samples, and the rest of the path tracer), everything else -- from profiled renders of seeds 1-3 per
+# setting, interleaved. perf's counts are CPU time and include loading the scene and the atlas, which
+# render's seconds (wall time of the render alone) exclude.
 have_perf=0
 if command -v perf > /dev/null && perf record -q -e cpu-clock -o /dev/null true > /dev/null 2>&1; then have_perf=1; fi
 perf_table="$out/perf-table.md"
 {
   echo
-  echo "Where the every-vertex setting's extra time goes (\`perf record -e cpu-clock\`, one render per setting,"
-  echo "seed 1; CPU samples relative to all of the rr-0.1 render's): the extra samples in Embree, in iris's own"
-  echo "code and elsewhere, and Embree's samples per ray (every vertex / rr 0.1):"
+  echo "Where the every-vertex setting's extra time goes (\`perf record -e cpu-clock\`, seeds 1-3 interleaved,"
+  echo "samples summed; relative to all of the rr-0.1 renders' samples, loading included): the extra samples in"
+  echo "Embree, in iris's own code and elsewhere, and Embree's samples per ray (every vertex / rr 0.1, rays of seed 1):"
   echo
   echo "| scene | extra samples | Embree | iris | other | Embree per ray |"
   echo "|---|---|---|---|---|---|"
@@ -101,10 +102,15 @@ for s in "${scenes[@]}"; do
   samples=$(python3 -c "print(${res/x/*} * $spp)")
   echo "| $name | $(per_sample ${rays[unguided]}) | $(ratio ${rays[rr01]} ${rays[unguided]}) / $(ratio ${rays[first]} ${rays[unguided]}) / $(ratio ${rays[every]} ${rays[unguided]}) | $(per_ray rr01) / $(per_ray first) / $(per_ray every) | $(per_sample ${lookups[first]}) / $(per_sample ${lookups[every]}) |" >> "$rays_table"
   if [ $have_perf = 1 ]; then
-    read -r pt_rr pe_rr pr_rr < <(perf_split "$out/$name/perf-rr01.exr" "$scene" --spp "$spp" --resolution "$res" --seed 1 \
-      --mode nee+bsdf --rr-threshold 0.1)
-    read -r pt_ev pe_ev pr_ev < <(perf_split "$out/$name/perf-every.exr" "$scene" --spp "$spp" --resolution "$res" --seed 1 \
-      --mode nee+bsdf+cache --atlas "$atlas" --guide-vertices 0 --rr-threshold 0.1)
+    pt_rr=0 pe_rr=0 pr_rr=0 pt_ev=0 pe_ev=0 pr_ev=0
+    for seed in 1 2 3; do  # interleaved, the samples summed over three seeds
+      read -r a b c < <(perf_split "$out/$name/perf-rr01.exr" "$scene" --spp "$spp" --resolution "$res" --seed $seed \
+        --mode nee+bsdf --rr-threshold 0.1)
+      pt_rr=$((pt_rr + a)) pe_rr=$((pe_rr + b)) pr_rr=$((pr_rr + c))
+      read -r a b c < <(perf_split "$out/$name/perf-every.exr" "$scene" --spp "$spp" --resolution "$res" --seed $seed \
+        --mode nee+bsdf+cache --atlas "$atlas" --guide-vertices 0 --rr-threshold 0.1)
+      pt_ev=$((pt_ev + a)) pe_ev=$((pe_ev + b)) pr_ev=$((pr_ev + c))
+    done
     awk -v n="$name" -v tr="$pt_rr" -v er="$pe_rr" -v rr="$pr_rr" -v te="$pt_ev" -v ee="$pe_ev" -v re="$pr_ev" \
       -v yr="${rays[rr01]}" -v ye="${rays[every]}" \
       'BEGIN {printf "| %s | +%.2fx | +%.2fx | +%.2fx | +%.2fx | %.2fx |\n", n, (te - tr) / tr, (ee - er) / tr,
