@@ -139,6 +139,17 @@ protected:
             const std::string bytes = read_bytes(in(name));
             write_text(in(std::string("truncated_") + name), bytes.substr(0, bytes.size() / 2));
         }
+        {  // A valid atlas but for its resolution, larger than any the renderer packs.
+            fs::copy_file(in("atlas.h5"), in("resolution512_atlas.h5"));
+            hid_t f = H5Fopen(in("resolution512_atlas.h5").c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+            ASSERT_GE(f, 0);
+            hid_t a = H5Aopen(f, "resolution", H5P_DEFAULT);
+            ASSERT_GE(a, 0);
+            const int32_t r = 512;
+            ASSERT_GE(H5Awrite(a, H5T_NATIVE_INT32, &r), 0);
+            H5Aclose(a);
+            H5Fclose(f);
+        }
         {  // A valid HDF5 file that is no iris stage file.
             hid_t f = H5Fcreate(in("plain.h5").c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
             ASSERT_GE(f, 0);
@@ -272,6 +283,7 @@ const BadInputCase kCases[] = {
     {"RenderAtlasTruncated", "render", "--atlas cut off midway", "{in}/valid.xml --atlas {in}/truncated_atlas.h5 -o {out}", "truncated_atlas.h5"},
     {"RenderAtlasWrongKind", "render", "--atlas is a photon map", "{in}/valid.xml --atlas {in}/photons.h5 -o {out}", "iris-photon-map"},
     {"RenderAtlasPlainHdf5", "render", "--atlas is an HDF5 file but no stage file", "{in}/valid.xml --atlas {in}/plain.h5 -o {out}", "plain.h5"},
+    {"RenderAtlasResolutionTooLarge", "render", "--atlas of 512 x 512 maps (the renderer packs at most 256)", "{in}/caustic.xml --atlas {in}/resolution512_atlas.h5 -o {out}", "resolution512_atlas.h5: attribute 'resolution' is 512 (must be 1..256)"},
     {"RenderAtlasOtherScene", "render", "--atlas made for another scene", "{in}/valid.xml --atlas {in}/furnace_atlas.h5 -o {out}", "another scene"},
     {"RenderOutputDirMissing", "render", "output folder does not exist", "{in}/valid.xml -o /nonexistent-dir/x.exr", "/nonexistent-dir/x.exr"},
     {"RenderOutputIsDirectory", "render", "output path is a folder", "{in}/valid.xml -o {in}/adir", "directory"},

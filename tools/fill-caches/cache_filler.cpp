@@ -17,8 +17,7 @@
 
 namespace iris {
 
-CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, double diagonal, const FillOptions& o,
-                       FillStats* stats) {
+void check_fill_options(const FillOptions& o) {
     if (o.k == 0) throw std::runtime_error("--k must be positive");
     if (o.resolution < 1 || o.resolution > kCacheAtlasMaxResolution)
         throw std::runtime_error("--resolution must be in [1, " + std::to_string(kCacheAtlasMaxResolution) + "]");
@@ -37,6 +36,11 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
                       o.floor, o.resolution, o.resolution, min_floor);
         throw std::runtime_error(msg);
     }
+}
+
+CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, double diagonal, const FillOptions& o,
+                       FillStats* stats) {
+    check_fill_options(o);
     auto t0 = std::chrono::steady_clock::now();
     int threads = o.threads > 0 ? o.threads : int(std::max(1u, std::thread::hardware_concurrency()));
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));

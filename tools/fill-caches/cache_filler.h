@@ -32,6 +32,10 @@ struct FillStats {
     double mean_photons = 0, mean_radius = 0, seconds = 0;
 };
 
+// Throws std::runtime_error naming the flag of the first option out of range (fill_caches checks too;
+// the tool calls it before reading its inputs).
+void check_fill_options(const FillOptions& opts);
+
 // scene_diagonal: length of the scene's bounding-box diagonal (world units), for the radius limit.
 CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, double scene_diagonal,
                        const FillOptions& opts, FillStats* stats);

@@ -34,9 +34,7 @@ int main(int argc, char** argv) {
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     if (int rc = iris::parse_command_line(app, argc, argv, "fill-caches"); rc >= 0) return rc;
     try {
-        if (opt.k == 0) throw std::runtime_error("--k must be positive");
-        if (opt.resolution < 1 || opt.resolution > iris::kCacheAtlasMaxResolution)
-            throw std::runtime_error("--resolution must be in [1, " + std::to_string(iris::kCacheAtlasMaxResolution) + "]");
+        iris::check_fill_options(opt);
         if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
         iris::check_output_path(output);
         iris::CachePointsFile cf = iris::read_cache_points(caches_path);

@@ -154,9 +154,9 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         };
         const bool use_cache = cache >= 0 && uc >= 1 - k_cache;
         // Where a cache guides, the rows of its map that the vertex will read start loading here, so
-        // that they arrive during NEE's shadow ray: the light direction's (below), and the continuation's (the
-        // row the cache sample searches, or the BSDF sample's: the BSDF technique draws its sample now,
-        // from random numbers already drawn, so nothing else changes).
+        // that they arrive during NEE's shadow ray: the light direction's (see below), and the
+        // continuation's (the row the cache sample searches, or the BSDF sample's: the BSDF technique
+        // draws its sample now, from random numbers already drawn, so nothing else changes).
         Guide::Texel nee_texel{}, bsdf_texel{};
         BsdfSample bs_guided;
         bool bs_guided_ok = false;
