@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -66,6 +67,13 @@ inline bool is_finite(Vec3 a) { return std::isfinite(a.x) && std::isfinite(a.y) 
 template <class T>
 inline T clamp(T v, T lo, T hi) { return std::min(std::max(v, lo), hi); }
 inline float sqr(float x) { return x * x; }
+// c ? a : b without a branch: for conditions that follow the data (a direction's signs, its
+// hemisphere), where a branch mispredicts about half the time (~15 cycles each on x86-64). Both a and
+// b are computed whatever c is.
+inline float select(bool c, float a, float b) {
+    const uint32_t m = 0u - uint32_t(c);
+    return std::bit_cast<float>((std::bit_cast<uint32_t>(a) & m) | (std::bit_cast<uint32_t>(b) & ~m));
+}
 // sqrt that tolerates tiny negative rounding errors (1 - cos^2 and friends).
 inline float safe_sqrt(float x) { return std::sqrt(std::max(0.0f, x)); }
 inline float safe_acos(float x) { return std::acos(clamp(x, -1.0f, 1.0f)); }

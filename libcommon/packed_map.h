@@ -123,11 +123,11 @@ inline void prefetch_row(const unsigned char* map, int R, int j) {
 // the row counts) and, rescaled inside the row's interval, the position along v inside it; u.y the
 // texel in the row and the position along u inside it. Like SphereDistribution::sample, a point within
 // kEdgeMargin of its texel's edge has its texel re-derived from the direction.
-inline Vec3 sample(const unsigned char* map, int R, Vec2 u, float per_sr, float* pdf) {
+// `j` is row_of(map, R, u.x), found by the caller (who prefetched that row meanwhile).
+inline Vec3 sample(const unsigned char* map, int R, Vec2 u, int j, float per_sr, float* pdf) {
     constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
     const float tx = clamp_unit(u.x) * float(kRowTotal), ty = clamp_unit(u.y) * float(kRowTotal);
-    const uint16_t* ends = row_end(map);
-    const int j = count_at_or_below(ends, R, uint32_t(tx));  // < R: tx < kRowTotal = ends[R - 1]
+    const uint16_t* ends = row_end(map);  // j < R: tx < kRowTotal = ends[R - 1]
     uint32_t lo_j, lo_i;
     const uint32_t row = interval(ends, j, &lo_j);  // > 0: tx lies in [lo_j, ends[j])
     const uint16_t* texels = texel_end(map, R, j);
@@ -144,6 +144,9 @@ inline Vec3 sample(const unsigned char* map, int R, Vec2 u, float per_sr, float*
     if (near_edge) sphere_texel_of(w, R, &di, &dj);
     *pdf = di == i && dj == j ? density(row, texel, per_sr) : texel_pdf(map, R, di, dj, per_sr);
     return w;
+}
+inline Vec3 sample(const unsigned char* map, int R, Vec2 u, float per_sr, float* pdf) {
+    return sample(map, R, u, row_of(map, R, u.x), per_sr, pdf);
 }
 
 }  // namespace iris::packed_map

@@ -81,16 +81,18 @@ inline Vec3 square_to_sphere(Vec2 uv) {
     const bool upper = l1 <= 1.0f;
     // r: "radius" from the nearest pole, 0 at +-z, 1 on the equator; 1 - r^2 = |z|. Computed as
     // l1 (resp. 2 - l1) rather than 1 - |1 - l1| so that it keeps full precision near +z.
-    const float r = upper ? l1 : 2.0f - l1;
+    // (The choices here and in sphere_to_square are selects, not branches: they follow the
+    // direction, and a guided vertex's random directions mispredicted them about half the time.)
+    const float r = select(upper, l1, 2.0f - l1);
     // Azimuth inside the quadrant is linear in (|v| - |u|) / r (in [-1, 1]): the lines of constant
     // azimuth are the rays from the pole through the diamond. At the poles (r = 0) any value will do.
-    const float t = r > 0.0f ? clamp((av - au) / r, -1.0f, 1.0f) : 0.0f;
+    const float t = select(r > 0.0f, clamp((av - au) / r, -1.0f, 1.0f), 0.0f);
     float cos_phi, sin_phi;  // phi = (t + 1) pi / 4 in [0, pi/2]
     quadrant_cos_sin(t, &cos_phi, &sin_phi);
     const float z_abs = 1.0f - r * r;
     // sin(theta) = sqrt(1 - z^2) = r sqrt(2 - r^2): exact near the poles, unlike sqrt(1 - z^2).
     const float s = r * safe_sqrt(2.0f - r * r);
-    return {std::copysign(cos_phi * s, u), std::copysign(sin_phi * s, v), upper ? z_abs : -z_abs};
+    return {std::copysign(cos_phi * s, u), std::copysign(sin_phi * s, v), select(upper, z_abs, -z_abs)};
 }
 
 // Unit direction -> square [0,1]^2, the exact inverse of square_to_sphere. `w` must be unit length
@@ -107,17 +109,15 @@ inline Vec2 sphere_to_square(Vec3 w) {
     // two ratios (in [0, 1]); 0 at the poles, as atan2(0, 0).
     const float lo = std::min(ax, ay), hi = std::max(ax, ay);
     const float half = atan_unit_fraction(hi > 0.0f ? lo / hi : 0.0f);  // in [0, 0.5]
-    const float a = std::min(1.0f, ay > ax ? 1.0f - half : half);
+    const float a = std::min(1.0f, select(ay > ax, 1.0f - half, half));
     // Upper hemisphere: |u| + |v| = r and |v| - |u| = r (2a - 1).
-    float av = r * a, au = r - av;
-    if (w.z < 0.0f) {
-        // Lower hemisphere: reflect the inner triangle onto the corner triangle, (|u|,|v|) ->
-        // (1 - |v|, 1 - |u|), which keeps |v| - |u| (the azimuth) and maps |u|+|v| = r to 2 - r.
-        const float au_up = au;
-        au = 1.0f - av;
-        av = 1.0f - au_up;
-    }
-    const float u = w.x < 0.0f ? -au : au, v = w.y < 0.0f ? -av : av;
+    const float av_up = r * a, au_up = r - av_up;
+    // Lower hemisphere: reflect the inner triangle onto the corner triangle, (|u|,|v|) ->
+    // (1 - |v|, 1 - |u|), which keeps |v| - |u| (the azimuth) and maps |u|+|v| = r to 2 - r.
+    const bool lower = w.z < 0.0f;
+    const float au = select(lower, 1.0f - av_up, au_up), av = select(lower, 1.0f - au_up, av_up);
+    // The signs of x and y (-0 as +0: -0 + 0 = +0).
+    const float u = std::copysign(au, w.x + 0.0f), v = std::copysign(av, w.y + 0.0f);
     return {clamp(0.5f * u + 0.5f, 0.0f, 1.0f), clamp(0.5f * v + 0.5f, 0.0f, 1.0f)};
 }
 

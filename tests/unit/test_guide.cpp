@@ -159,6 +159,28 @@ TEST(GuideLookup, NormalClassIsTheNearestAxis) {
     EXPECT_EQ(Guide::normal_class({0, -1, 0}), 3);
     EXPECT_EQ(Guide::normal_class({0.5f, 0.5f, 0.7f}), 4);
     EXPECT_EQ(Guide::normal_class({0, 0, -1}), 5);
+    // Ties (|z| = |y| = |x|, |y| = |x|) go to z, then to y; -0 counts as positive; NaN is class 0. Against
+    // the plain definition on random and tied normals, every sign combination.
+    auto plain = [](Vec3 n) {
+        const float ax = std::abs(n.x), ay = std::abs(n.y), az = std::abs(n.z);
+        if (az >= ax && az >= ay) return n.z < 0 ? 5 : 4;
+        if (ay >= ax) return n.y < 0 ? 3 : 2;
+        return n.x < 0 ? 1 : 0;
+    };
+    EXPECT_EQ(Guide::normal_class({0.5f, 0.5f, 0.5f}), 4);
+    EXPECT_EQ(Guide::normal_class({-0.6f, -0.6f, 0.1f}), 3);
+    EXPECT_EQ(Guide::normal_class({0.0f, 0.0f, -0.0f}), 4);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_EQ(Guide::normal_class({nan, nan, nan}), 0);
+    Rng rng(5, 1);
+    const float values[] = {0.0f, -0.0f, 0.3f, -0.3f, 0.8f, -0.8f};
+    for (float x : values)
+        for (float y : values)
+            for (float z : values) EXPECT_EQ(Guide::normal_class({x, y, z}), plain({x, y, z})) << x << " " << y << " " << z;
+    for (int i = 0; i < 10000; ++i) {
+        const Vec3 n(2 * rng.next_float() - 1, 2 * rng.next_float() - 1, 2 * rng.next_float() - 1);
+        ASSERT_EQ(Guide::normal_class(n), plain(n)) << n.x << " " << n.y << " " << n.z;
+    }
 }
 
 TEST(GuideLookup, TakesItsFineOrCoarseCellsAnswerAndGuidesOnlyWhereItGuides) {

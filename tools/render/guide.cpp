@@ -208,14 +208,12 @@ void Guide::fill_grid(Grid& g, float cell, const std::vector<float>& reach, cons
     }
 }
 
-const Guide::Slot* Guide::Grid::find(Vec3 p) const {
-    int64_t x, y, z;
-    if (slots.empty() || !cell_of(p, &x, &y, &z)) return nullptr;
-    const uint64_t k = key(x, y, z);
+const Guide::Slot* Guide::Grid::find(const CellRef& r) const {
+    if (r.key == ~0ull) return nullptr;
     const size_t mask = slots.size() - 1;
-    for (size_t slot = mix64(k) & mask;; slot = (slot + 1) & mask) {
+    for (size_t slot = r.slot;; slot = (slot + 1) & mask) {
         const Slot& s = slots[slot];
-        if (s.key == k) return &s;
+        if (s.key == r.key) return &s;
         if (s.key == ~0ull) return nullptr;
     }
 }
@@ -232,16 +230,20 @@ bool Guide::cell_center(Vec3 p, Vec3* center, float* width) const {
     return false;
 }
 
-int Guide::lookup(Vec3 p, Vec3 n_side) const {
-    if (!is_finite(p)) return -1;
-    const Slot* s = fine_.find(p);
-    if (!s) s = coarse_.find(p);
+int Guide::lookup(const Probe& q, Vec3 n_side) const {
+    if (!q.finite) return -1;
+    const Slot* s = fine_.find(q.fine);
+    if (!s) s = coarse_.find(q.coarse);
     if (!s) return -1;  // no cache serves p
     const int c = s->answer[normal_class(n_side)];
     if (c >= 0) {
         // Every guided vertex reads the header (frame, alpha) and the row ends: start loading them now.
+        // (Two lines up to R = 32, then one more per 32 rows: the two unconditionally, as a loop over
+        // them cost a mispredicted exit at about every lookup.)
         const unsigned char* head = block(c);
-        for (size_t off = 0; off < kHeader * sizeof(float) + packed_map::row_end_bytes(atlas_.resolution); off += 64)
+        prefetch(head);
+        prefetch(head + 64);
+        for (size_t off = 128; off < kHeader * sizeof(float) + packed_map::row_end_bytes(atlas_.resolution); off += 64)
             prefetch(head + off);
     }
     return c;
@@ -259,9 +261,9 @@ int Guide::first_serving(const std::vector<uint32_t>& claimants, const uint32_t*
     return -1;
 }
 
-Vec3 Guide::sample(int c, Vec2 u, float* pdf) const {
+Vec3 Guide::sample(int c, Vec2 u, int row, float* pdf) const {
     float p;
-    const Vec3 local = packed_map::sample(map(c), atlas_.resolution, u, per_sr_, &p);
+    const Vec3 local = packed_map::sample(map(c), atlas_.resolution, u, row, per_sr_, &p);
     if (pdf) *pdf = p;
     return frame(c).to_world(local);
 }

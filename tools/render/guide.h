@@ -67,18 +67,39 @@ public:
     // function of (p, n_side), as unbiased MIS requires, and -1 where the chosen cache does not guide
     // (too few photons, or a predicted gain below min_gain) or none serves.
     // Starts loading the cache's sampling table into the CPU cache.
-    int lookup(Vec3 p, Vec3 n_side) const;
-    // Starts loading the grid slots that lookup(p, ...) probes (p's cells in both grids).
-    void prefetch_lookup(Vec3 p) const {
-        fine_.prefetch(p);
-        coarse_.prefetch(p);
+    int lookup(Vec3 p, Vec3 n_side) const { return lookup(probe(p), n_side); }
+
+    // The same in two steps, so that the integrator can start loading the grid slots as soon as it
+    // knows the vertex and read them later: probe(p) finds p's cells in both grids (their keys and
+    // first slots; each hashed once) and starts loading their slots; lookup(probe, n_side) reads them.
+    struct CellRef {
+        uint64_t key = ~0ull;  // ~0: p is outside the grid
+        size_t slot = 0;       // where the cell's probe sequence starts
+    };
+    struct Probe {
+        CellRef fine, coarse;
+        bool finite = false;  // p is finite (otherwise no cache serves it)
+    };
+    Probe probe(Vec3 p) const {
+        Probe q;
+        q.finite = is_finite(p);
+        if (q.finite) {
+            q.fine = fine_.cell_ref(p);
+            q.coarse = coarse_.cell_ref(p);
+        }
+        return q;
     }
+    int lookup(const Probe& q, Vec3 n_side) const;
     // Which of the six axis directions (+x, -x, +y, -y, +z, -z: 0..5) is nearest n.
+    // (Without branches: a path's vertices land on walls of every orientation, and branches on the
+    // normal mispredicted about once per lookup.)
     static int normal_class(Vec3 n) {
         const float ax = std::abs(n.x), ay = std::abs(n.y), az = std::abs(n.z);
-        if (az >= ax && az >= ay) return n.z < 0 ? 5 : 4;
-        if (ay >= ax) return n.y < 0 ? 3 : 2;
-        return n.x < 0 ? 1 : 0;
+        const int z = int(az >= ax) & int(az >= ay);  // ties go to z, then to y
+        const int y = (z ^ 1) & int(ay >= ax);
+        const int x = (z | y) ^ 1;
+        const int negative = (z & int(n.z < 0)) | (y & int(n.y < 0)) | (x & int(n.x < 0));
+        return 2 * (2 * z + y) + negative;
     }
     // The centre and width of the cell whose answer p takes (fine grid, else coarse); false where p is
     // in neither grid (no cache serves it).
@@ -87,7 +108,15 @@ public:
     static constexpr uint32_t kAnswerCandidates = 32;
 
     // Samples a world-space direction from cache c; *pdf receives its density per steradian.
-    Vec3 sample(int c, Vec2 u, float* pdf) const;
+    Vec3 sample(int c, Vec2 u, float* pdf) const { return sample(c, u, sample_row(c, u), pdf); }
+    // The same in two steps: the row of cache c's map that u picks (its row counts are read now) and
+    // the start of loading that row's texel counts, then the sample, which searches only that row.
+    int sample_row(int c, Vec2 u) const {
+        const int j = packed_map::row_of(map(c), atlas_.resolution, u.x);
+        packed_map::prefetch_row(map(c), atlas_.resolution, j);
+        return j;
+    }
+    Vec3 sample(int c, Vec2 u, int row, float* pdf) const;
     // Density per steradian with which sample(c, ...) produces the world direction w.
     float pdf(int c, Vec3 w) const { return texel_pdf(c, texel(c, w)); }
 
@@ -105,10 +134,6 @@ public:
     // Of texel k = j R + i.
     float texel_pdf(int c, int k) const { return packed_map::texel_pdf(map(c), atlas_.resolution, k, per_sr_); }
     void prefetch_texel(int c, Texel t) const { packed_map::prefetch_row(map(c), atlas_.resolution, t.j); }
-    // Starts loading the row of cache c's map that sample(c, u, ...) will search.
-    void prefetch_sample(int c, Vec2 u) const {
-        packed_map::prefetch_row(map(c), atlas_.resolution, packed_map::row_of(map(c), atlas_.resolution, u.x));
-    }
     // Probability of BSDF sampling at a vertex that cache c serves.
     float bsdf_fraction(int c) const { return header(c)[kAlpha]; }
     // The atlas's fields except its maps, which live in the guide's own table (below).
@@ -147,12 +172,20 @@ private:
         Vec3 center(int64_t x, int64_t y, int64_t z) const {
             return origin + Vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) * cell;
         }
-        // The slot of p's cell, or null where p's cell is not in the grid.
-        const Slot* find(Vec3 p) const;
-        void prefetch(Vec3 p) const {
+        // p's cell (key ~0 where the grid is empty or p outside it), its slot starting to load.
+        CellRef cell_ref(Vec3 p) const {
+            CellRef r;
             int64_t x, y, z;
-            if (!slots.empty() && cell_of(p, &x, &y, &z)) iris::prefetch(&slots[mix64(key(x, y, z)) & (slots.size() - 1)]);
+            if (!slots.empty() && cell_of(p, &x, &y, &z)) {
+                r.key = key(x, y, z);
+                r.slot = mix64(r.key) & (slots.size() - 1);
+                iris::prefetch(&slots[r.slot]);
+            }
+            return r;
         }
+        // The slot of the cell, or null where the cell is not in the grid.
+        const Slot* find(const CellRef& r) const;
+        const Slot* find(Vec3 p) const { return find(cell_ref(p)); }
     };
     // Fills g with cells of width `cell` covering the box of half-width reach[i] around every claimant i,
     // each with its answers.

@@ -76,7 +76,8 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         const bool guided_here = guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf);
         // A guided vertex's first load, its grid slot, starts here (its emission and light sample run
         // meanwhile).
-        if (guided_here) guide->prefetch_lookup(hit.p);
+        Guide::Probe probe;
+        if (guided_here) probe = guide->probe(hit.p);
         // Emission: paths do not end at lights (an emitter may also reflect, DESIGN 4.8).
         if (hit.light >= 0) {
             const Light& light = scene.lights[hit.light];
@@ -132,7 +133,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             ++guided_vertices;
             ++counters.lookups;
             Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
-            cache = guide->lookup(hit.p, n_side);
+            cache = guide->lookup(probe, n_side);
         }
         // NEE's BSDF value (the rest of NEE follows once the cache's rows are loading).
         Vec3 wo_light;
@@ -158,6 +159,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // continuation's (the row the cache sample searches, or the BSDF sample's: the BSDF technique
         // draws its sample now, from random numbers already drawn, so nothing else changes).
         Guide::Texel nee_texel{}, bsdf_texel{};
+        int sample_row = 0;  // the row of the cache's map that the cache technique samples
         BsdfSample bs_guided;
         bool bs_guided_ok = false;
         Vec3 bs_guided_world;
@@ -173,7 +175,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 guide->prefetch_texel(cache, nee_texel);
             }
             if (use_cache) {
-                guide->prefetch_sample(cache, u);
+                sample_row = guide->sample_row(cache, u);
             } else {
                 // uc is remapped to stay uniform for the BSDF's own lobe choice: below 1 - g (the coat)
                 // as it is, the rest of [1 - g, 1 - k_cache) stretched onto [1 - g, 1).
@@ -250,7 +252,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             }
         } else {
             float p_cache;
-            wo_world = guide->sample(cache, u, &p_cache);
+            wo_world = guide->sample(cache, u, sample_row, &p_cache);
             const Vec3 wo = hit.frame.to_local(wo_world);
             if (!(p_cache > 0) || !consistent_side(wo_world, hit.ng, wo.z)) break;
             const float p = mix_from(wo, bsdf_pdf(bsdf, wi, wo), p_cache);
