@@ -24,8 +24,10 @@ report=docs/benchmarks/instructions.md
 mkdir -p "$out" docs/benchmarks
 scenes=(cbox_kugeln.xml cbox_spiegelboxen.xml veach_bidir/bidir.xml metal_ring/ring.xml)
 # Runs cachegrind on one render (args: NAME SPP render-arguments...); leaves $out/NAME-SPP.cg.
+# IRIS_REUSE=1 keeps the counts of an earlier run (to rewrite the report only).
 count() {
   local name=$1 spp=$2; shift 2
+  [[ -n "${IRIS_REUSE:-}" && -f "$out/$name-$spp.cg" ]] && return
   valgrind --tool=cachegrind --cache-sim=no --branch-sim=yes --cachegrind-out-file="$out/$name-$spp.cg" \
     "$bin/render" "$@" -o "$out/$name-$spp.exr" --spp "$spp" --resolution 64x64 --seed 1 --threads 1 -q > /dev/null 2>&1
 }
@@ -51,7 +53,7 @@ split="$out/split.md"
 {
   echo
   echo "Where a lookup's extra instructions go (every vertex less rr 0.1, per lookup; functions with at least 10;"
-  echo "*path tracer* is trace_path and what the compiler inlined into it, *Embree* its traversal, unnamed):"
+  echo "*path tracer* is trace_path and what the compiler inlined into it, *Embree* the code without symbols, Embree's traversal):"
   echo
 } > "$split"
 for s in "${scenes[@]}"; do
@@ -85,7 +87,7 @@ for s in "${scenes[@]}"; do
           n = f
           if (n ~ /parallel_for_body_wrapper<iris::render_image/) n = "path tracer"
           else if (n == "???") n = "Embree"
-          else { sub(/\(.*/, "", n); sub(/^iris::/, "", n) }
+          else { gsub(/\(anonymous namespace\)::/, "", n); sub(/\(.*/, "", n); sub(/^iris::/, "", n) }
           e[n] += d[f] / l
         }
         for (n in e) if (e[n] >= 10 || e[n] <= -10) printf "%.0f\t%s\n", e[n], n
