@@ -67,9 +67,9 @@ inline bool is_finite(Vec3 a) { return std::isfinite(a.x) && std::isfinite(a.y) 
 template <class T>
 inline T clamp(T v, T lo, T hi) { return std::min(std::max(v, lo), hi); }
 inline float sqr(float x) { return x * x; }
-// c ? a : b without a branch: for conditions that follow the data (a direction's signs, its
-// hemisphere), where a branch mispredicts about half the time (~15 cycles each on x86-64). Both a and
-// b are computed whatever c is.
+// c ? a : b without a branch: for conditions that follow the data (a sampled direction's hemisphere),
+// where a branch mispredicts about half the time (~15 cycles each on x86-64). Both a and b are
+// computed whatever c is, so it pays only where they are cheap.
 inline float select(bool c, float a, float b) {
     const uint32_t m = 0u - uint32_t(c);
     return std::bit_cast<float>((std::bit_cast<uint32_t>(a) & m) | (std::bit_cast<uint32_t>(b) & ~m));

@@ -81,8 +81,10 @@ inline Vec3 square_to_sphere(Vec2 uv) {
     const bool upper = l1 <= 1.0f;
     // r: "radius" from the nearest pole, 0 at +-z, 1 on the equator; 1 - r^2 = |z|. Computed as
     // l1 (resp. 2 - l1) rather than 1 - |1 - l1| so that it keeps full precision near +z.
-    // (The choices here and in sphere_to_square are selects, not branches: they follow the
-    // direction, and a guided vertex's random directions mispredicted them about half the time.)
+    // (The hemisphere and azimuth choices here and in sphere_to_square are selects, not branches: they
+    // follow the direction, which a cache sample draws at random. sphere_to_square keeps its branches
+    // on |z| > 0.5 and at the poles: there both sides cost a division, and in the render they
+    // mispredict little -- cachegrind's counts, docs/BENCHMARKS.md.)
     const float r = select(upper, l1, 2.0f - l1);
     // Azimuth inside the quadrant is linear in (|v| - |u|) / r (in [-1, 1]): the lines of constant
     // azimuth are the rays from the pole through the diamond. At the poles (r = 0) any value will do.

@@ -231,7 +231,6 @@ bool Guide::cell_center(Vec3 p, Vec3* center, float* width) const {
 }
 
 int Guide::lookup(const Probe& q, Vec3 n_side) const {
-    if (!q.finite) return -1;
     const Slot* s = fine_.find(q.fine);
     if (!s) s = coarse_.find(q.coarse);
     if (!s) return -1;  // no cache serves p

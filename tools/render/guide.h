@@ -78,17 +78,9 @@ public:
     };
     struct Probe {
         CellRef fine, coarse;
-        bool finite = false;  // p is finite (otherwise no cache serves it)
     };
-    Probe probe(Vec3 p) const {
-        Probe q;
-        q.finite = is_finite(p);
-        if (q.finite) {
-            q.fine = fine_.cell_ref(p);
-            q.coarse = coarse_.cell_ref(p);
-        }
-        return q;
-    }
+    // (A p that is not finite is in neither grid: Grid::cell_of's range test fails for NaN and inf.)
+    Probe probe(Vec3 p) const { return {fine_.cell_ref(p), coarse_.cell_ref(p)}; }
     int lookup(const Probe& q, Vec3 n_side) const;
     // Which of the six axis directions (+x, -x, +y, -y, +z, -z: 0..5) is nearest n.
     // (Without branches: a path's vertices land on walls of every orientation, and branches on the
