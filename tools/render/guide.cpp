@@ -262,7 +262,7 @@ int Guide::first_serving(const std::vector<uint32_t>& claimants, const uint32_t*
 
 Vec3 Guide::sample(int c, Vec2 u, int row, float* pdf) const {
     float p;
-    const Vec3 local = packed_map::sample(map(c), atlas_.resolution, u, row, per_sr_, &p);
+    const Vec3 local = at_resolution([&](auto R) { return packed_map::sample(map(c), R, u, row, per_sr_, &p); });
     if (pdf) *pdf = p;
     return frame(c).to_world(local);
 }

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "formats/cache_atlas.h"
@@ -104,9 +105,11 @@ public:
     // The same in two steps: the row of cache c's map that u picks (its row counts are read now) and
     // the start of loading that row's texel counts, then the sample, which searches only that row.
     int sample_row(int c, Vec2 u) const {
-        const int j = packed_map::row_of(map(c), atlas_.resolution, u.x);
-        packed_map::prefetch_row(map(c), atlas_.resolution, j);
-        return j;
+        return at_resolution([&](auto R) {
+            const int j = packed_map::row_of(map(c), R, u.x);
+            packed_map::prefetch_row(map(c), R, j);
+            return j;
+        });
     }
     Vec3 sample(int c, Vec2 u, int row, float* pdf) const;
     // Density per steradian with which sample(c, ...) produces the world direction w.
@@ -119,13 +122,17 @@ public:
     };
     Texel texel(int c, Vec3 w) const {
         Texel t;
-        sphere_texel_of(frame(c).to_local(w), atlas_.resolution, &t.i, &t.j);
+        at_resolution([&](auto R) { sphere_texel_of(frame(c).to_local(w), R, &t.i, &t.j); });
         return t;
     }
-    float texel_pdf(int c, Texel t) const { return packed_map::texel_pdf(map(c), atlas_.resolution, t.i, t.j, per_sr_); }
+    float texel_pdf(int c, Texel t) const {
+        return at_resolution([&](auto R) { return packed_map::texel_pdf(map(c), R, t.i, t.j, per_sr_); });
+    }
     // Of texel k = j R + i.
     float texel_pdf(int c, int k) const { return packed_map::texel_pdf(map(c), atlas_.resolution, k, per_sr_); }
-    void prefetch_texel(int c, Texel t) const { packed_map::prefetch_row(map(c), atlas_.resolution, t.j); }
+    void prefetch_texel(int c, Texel t) const {
+        at_resolution([&](auto R) { packed_map::prefetch_row(map(c), R, t.j); });
+    }
     // Probability of BSDF sampling at a vertex that cache c serves.
     float bsdf_fraction(int c) const { return header(c)[kAlpha]; }
     // The atlas's fields except its maps, which live in the guide's own table (below).
@@ -136,6 +143,15 @@ public:
     bool empty() const { return summary_.guiding == 0; }
 
 private:
+    // Calls f with the maps' resolution: as the compile-time constant kFastResolution where the atlas
+    // has it (the pipeline's default), so that the compiler unrolls the map's count searches and folds
+    // its row offsets on the hot path, else as the atlas's int.
+    static constexpr int kFastResolution = 32;
+    template <class F>
+    auto at_resolution(F&& f) const -> std::invoke_result_t<F&, int> {
+        if (atlas_.resolution == kFastResolution) return f(std::integral_constant<int, kFastResolution>{});
+        return f(atlas_.resolution);
+    }
     // Hash grids over the space near the caches that claim vertices (all with a gather disc). Each
     // cell stores the lookup's answer for each normal class, so a lookup is one hash probe and one
     // cache line: for deep (incoherent) vertices, scanning a list of candidates per cell cost two more
