@@ -85,7 +85,8 @@ for s in "${scenes[@]}"; do
         for (f in a) if (!(f in b)) d[f] = -a[f]
         for (f in d) {
           n = f
-          if (n ~ /parallel_for_body_wrapper<iris::render_image/) n = "path tracer"
+          if (n ~ /parallel_for_body_wrapper<iris::render_image/ || n ~ /^iris::trace_path\(/) n = "path tracer"
+          else if (match(n, /at_resolution<iris::Guide::[a-z_]+/)) n = "Guide::" substr(n, RSTART + 27, RLENGTH - 27)
           else if (n == "???") n = "Embree"
           else { gsub(/\(anonymous namespace\)::/, "", n); sub(/\(.*/, "", n); sub(/^iris::/, "", n) }
           e[n] += d[f] / l
