@@ -1,6 +1,7 @@
 // The renderer's side of the cache atlas (tools/render/guide.h) and the per-cache BSDF fraction
 // (libcommon/bsdf_fraction.h):
 //   - the packed maps the guide samples are exact distributions within their quantisation of the atlas's;
+//   - the guide's compile-time R = 32 path samples and evaluates bit for bit as the generic packed map;
 //   - the lookup takes its grid cell's answer for the vertex's normal axis (the cache nearest the cell's
 //     centre that serves some point of the cell) or, outside the grid, the nearest cache serving the
 //     vertex, guiding or not, compared against brute force;
@@ -150,6 +151,52 @@ CacheAtlas plane_atlas(size_t n, uint64_t seed) {
     a.cdf.resize(n * N);
     for (size_t c = 0; c < n; ++c) SphereDistribution::build(w.data(), a.resolution, &a.cdf[c * N], &a.pdf[c * N]);
     return a;
+}
+
+// The guide's per-vertex map functions see R = 32 as a compile-time constant (Guide::at_resolution);
+// they must give bit for bit what the packed map gives for a resolution known only at run time: the
+// same samples and densities, and the density of a sample's direction is the one it was drawn with.
+TEST(GuideSampling, ConstantResolutionAgreesWithTheRuntimeOne) {
+    volatile int runtime_r = 32;  // not foldable: the packed map's generic code
+    const int R = runtime_r;
+    const int N = R * R;
+    const float per_sr = float(N) * kInv4Pi;
+    CacheAtlas a = plane_atlas(4, 11);
+    a.resolution = 32;
+    a.pdf.assign(a.size() * size_t(N), 0.0f);
+    a.cdf.assign(a.size() * size_t(N), 0.0f);
+    for (size_t c = 0; c < a.size(); ++c) {
+        a.usable[c] = 1;
+        SphereDistribution::build(lumpy_weights(R, 100 + c).data(), R, &a.cdf[c * size_t(N)], &a.pdf[c * size_t(N)]);
+    }
+    const Guide guide(a, 0.25f);
+    std::vector<unsigned char> storage(packed_map::bytes(R) + 64);
+    unsigned char* map = storage.data() + (64 - reinterpret_cast<uintptr_t>(storage.data()) % 64) % 64;
+    Rng rng(7, 2);
+    for (int c = 0; c < int(a.size()); ++c) {
+        packed_map::encode(a.pdf_row(size_t(c)), R, map);
+        const Frame frame(a.normal[size_t(c)]);
+        for (int s = 0; s < 2000; ++s) {
+            const Vec2 u{rng.next_float(), rng.next_float()};
+            float p_guide = 0, p_map = 0;
+            const Vec3 w = guide.sample(c, u, &p_guide);
+            const Vec3 expected = frame.to_world(packed_map::sample(map, R, u, per_sr, &p_map));
+            ASSERT_EQ(guide.sample_row(c, u), packed_map::row_of(map, R, u.x)) << "cache " << c;
+            ASSERT_EQ(w.x, expected.x);
+            ASSERT_EQ(w.y, expected.y);
+            ASSERT_EQ(w.z, expected.z);
+            ASSERT_EQ(p_guide, p_map);
+            ASSERT_EQ(guide.pdf(c, w), p_guide) << "cache " << c << " sample " << s;
+            // A direction drawn elsewhere: its texel and density from the generic functions.
+            const Vec3 d = sample_uniform_sphere({rng.next_float(), rng.next_float()});
+            int i, j;
+            sphere_texel_of(frame.to_local(d), R, &i, &j);
+            const Guide::Texel t = guide.texel(c, d);
+            ASSERT_EQ(t.i, i);
+            ASSERT_EQ(t.j, j);
+            ASSERT_EQ(guide.texel_pdf(c, t), packed_map::texel_pdf(map, R, i, j, per_sr));
+        }
+    }
 }
 
 TEST(GuideLookup, NormalClassIsTheNearestAxis) {
