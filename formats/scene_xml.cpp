@@ -508,7 +508,7 @@ private:
         return r;
     }
 
-    // <spectrum>, <rgb> or <srgb> -> linear RGB (Mitsuba 0.5 RGB mode; see seed-scenes/README.md).
+    // <spectrum>, <rgb> or <srgb> -> linear RGB (Mitsuba 0.5 RGB mode; see scenes/thesis/README.md).
     std::optional<RGB> get_spectrum(Plugin& p, const std::string& name) {
         Prop* prop = find(p, name);
         if (!prop) return std::nullopt;

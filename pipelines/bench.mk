@@ -19,8 +19,7 @@ SHELL := /bin/bash
 .DELETE_ON_ERROR:
 
 BIN ?= build/bin
-SHARED ?= ../shared
-SEEDS := $(SHARED)/seed-scenes
+SEEDS ?= scenes/thesis
 REF_DIR ?= .cache/references
 TIER ?= quick
 

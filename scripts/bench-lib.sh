@@ -1,6 +1,6 @@
-# Shared by the scripts/bench-*.sh benchmarks (sourced, not run): where the seed scenes and the Release
+# Shared by the scripts/bench-*.sh benchmarks (sourced, not run): where the thesis scenes and the Release
 # binaries are, and the few measurements every script reads the same way.
-seeds=${IRIS_SHARED_DIR:-../shared}/seed-scenes
+seeds=scenes/thesis
 bin=build/bin
 # Median of the numbers on stdin, one per line.
 median() { sort -g | awk '{a[NR]=$1} END {print a[int((NR+1)/2)]}'; }

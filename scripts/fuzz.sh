@@ -27,7 +27,6 @@
 # hdf5, whose damaged files make libhdf5 loop for ever now and then, 25 for the others),
 # FUZZ_KEEP_GOING (targets fuzzed in fork mode that go on after a crash, default "hdf5"), FUZZ_FORK_JOBS
 # (parallel jobs of such a target, default 1: count them against FUZZ_PARALLEL),
-# IRIS_SHARED_DIR (the shared/ folder with seed-scenes/, default ../shared).
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 CPU_SECONDS=${1:-1800}
@@ -35,7 +34,6 @@ shift || true
 TARGETS=("$@")
 [[ ${#TARGETS[@]} -gt 0 ]] || TARGETS=(scene_xml obj hdf5)
 BUILD="$ROOT/build-fuzz"
-SHARED=${IRIS_SHARED_DIR:-$ROOT/../shared}
 PARALLEL=${FUZZ_PARALLEL:-1}
 NICE=${FUZZ_NICE:-15}
 TIMEOUT=${FUZZ_TIMEOUT:-}
@@ -76,14 +74,14 @@ seed_scene_xml() {
     i=$((i + 1))
     perl -pe 's/value="[^"]*\.obj"/"value=\"" . ($n++ % 2 ? "tri.obj" : "mesh.obj") . "\""/ge' \
       "$f" >"$out/$i-$(basename "$f")"
-  done < <(find "$SHARED/seed-scenes" "$ROOT/scenes" "$ROOT/tests/data" -name '*.xml' -not -path '*/fuzz-regressions/*' -print0 2>/dev/null | sort -z)
+  done < <(find "$ROOT/scenes" "$ROOT/tests/data" -name '*.xml' -not -path '*/fuzz-regressions/*' -print0 2>/dev/null | sort -z)
 }
 seed_obj() {
   local out=$1 i=0 f
   while IFS= read -r -d '' f; do
     i=$((i + 1))
     cp "$f" "$out/$i-$(basename "$f")"
-  done < <(find "$SHARED/seed-scenes" "$ROOT/scenes" "$ROOT/tests/data" -name '*.obj' -size -64k -not -path '*/fuzz-regressions/*' -print0 2>/dev/null | sort -z)
+  done < <(find "$ROOT/scenes" "$ROOT/tests/data" -name '*.obj' -size -64k -not -path '*/fuzz-regressions/*' -print0 2>/dev/null | sort -z)
 }
 # hdf5: byte 0 of an input picks the reader (harness.h); each golden file goes to its own readers
 # (0/1 photons, 2/3 caches, 4/5 atlas) and to the generic ones (6 read_stage_header, 7 stage_file_format).

@@ -2,11 +2,14 @@
 # Renders the seed scenes that have converged references from the thesis (Mitsuba 0.5 renders) and
 # compares channel means after the same sRGB encoding and 8-bit clipping, plus relMSE, writing
 # docs/VALIDATION.md and a false-colour error image per scene into docs/validation/.
-# Usage: scripts/validate-references.sh [SPP]   (default 256; needs a Release build in build/)
+# Usage: IRIS_THESIS_REFERENCES=DIR scripts/validate-references.sh [SPP]   (default 256; needs a Release
+# build in build/; DIR holds the thesis's reference PNGs, which are not in the repository)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 spp=${1:-256}
-seeds=${IRIS_SHARED_DIR:-../shared}/seed-scenes
+seeds=scenes/thesis
+# The thesis's reference images (Mitsuba 0.5 PNGs) are not in the repository (13 MB): pass their folder.
+refs=${IRIS_THESIS_REFERENCES:?set IRIS_THESIS_REFERENCES to the folder of the thesis's reference PNGs}
 bin=build/bin
 out=${IRIS_OUT:-out/validation}
 mkdir -p "$out" docs/validation
@@ -34,7 +37,7 @@ for c in "${cases[@]}"; do
   log=$("$bin/render" "$seeds/$scene" -o "$exr" --spp "$spp" --seed 1 $flags 2>&1 | tail -1)
   echo "$log"
   secs=$(echo "$log" | sed -n 's/.*spp, \([0-9.]*\) s,.*/\1/p')
-  json=$("$bin/compare-images" "$exr" "$seeds/reference/png/$ref" --mitsuba-banner --json \
+  json=$("$bin/compare-images" "$exr" "$refs/$ref" --mitsuba-banner --json \
          -o "docs/validation/$name.error.png" --error-scale 0.05)
   echo "$json"
   python3 - "$json" "$scene" "$ref" "$spp" "$secs" >> docs/VALIDATION.md <<'PY'

@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const std::string kSeed = std::string(IRIS_SHARED_DIR) + "/seed-scenes/";
+const std::string kSeed = std::string(IRIS_SOURCE_DIR) + "/scenes/thesis/";
 
 Scene parse_quiet(const std::string& path, std::vector<std::string>* warnings = nullptr,
                   const std::map<std::string, std::string>& params = {}) {

@@ -1,4 +1,4 @@
-// Spectrum -> RGB conversion against the values in shared/seed-scenes/README.md (Mitsuba 0.5 RGB mode),
+// Spectrum -> RGB conversion against the values in scenes/thesis/README.md (Mitsuba 0.5 RGB mode),
 // plus the colour-space helpers and the named-material tables.
 #include <gtest/gtest.h>
 
@@ -32,7 +32,7 @@ Sampled parse_pairs(const std::string& text) {
 
 // The reflectance spectrum of the bsdf with this id in cbox_kugeln.xml (the full seed spectra).
 Sampled cbox_reflectance(const std::string& id) {
-    std::ifstream in(std::string(IRIS_SHARED_DIR) + "/seed-scenes/cbox_kugeln.xml");
+    std::ifstream in(std::string(IRIS_SOURCE_DIR) + "/scenes/thesis/cbox_kugeln.xml");
     std::stringstream buf;
     buf << in.rdbuf();
     std::string xml = buf.str();
