@@ -19,6 +19,8 @@ SHELL := /bin/bash
 .DELETE_ON_ERROR:
 
 BIN ?= build/bin
+# Debian's Python, which has python3-matplotlib for the plots (a python3 earlier on PATH may not).
+PYTHON ?= /usr/bin/python3
 SEEDS ?= scenes/thesis
 REF_DIR ?= .cache/references
 TIER ?= quick
@@ -70,14 +72,14 @@ PARAM_SCENE ?= cbox_kugeln
 PARAM_BUDGET ?= 24
 PARAM_STUDY ?= PATHS=62500,125000,250000,500000;COUNT=1000,4000,16000;K=250,500,1000,2000;RES=8,16,32;SIGMA=0,0.75,1.5
 
-.PHONY: quick full references runs report params FORCE
+.PHONY: plots quick full references runs report params FORCE
 quick:
 	@$(MAKE) -f pipelines/bench.mk TIER=quick report
 full:
 	@$(MAKE) -f pipelines/bench.mk TIER=full report
 references: $(REFS)
 params: $(call ref_of,$(PARAM_SCENE))
-	IRIS_BIN=$(BIN) python3 scripts/bench.py params --scene $(call path_of,$(filter $(PARAM_SCENE):%,$(SCENES_ALL))) \
+	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench.py params --scene $(call path_of,$(filter $(PARAM_SCENE):%,$(SCENES_ALL))) \
 	  --name $(PARAM_SCENE) --scale $(SCALE) --budget $(PARAM_BUDGET) --reference $< --study '$(PARAM_STUDY)' \
 	  --out out/bench/params/$(PARAM_SCENE) -o docs/benchmarks/params-$(PARAM_SCENE).md
 runs: $(RESULTS)
@@ -85,19 +87,23 @@ runs: $(RESULTS)
 # The settings given on make's command line, quoted in the report's command.
 GIVEN := $(foreach v,SCALE BUDGETS MODES REF_SPP REPEATS PIPELINE ONLY REPORT,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
 report: $(RESULTS)
-	python3 scripts/bench.py report --tier $(TIER) --runs $(RUNS) -o docs/benchmarks/$(REPORT).md --assets docs/benchmarks/$(REPORT) $(GIVEN)
+	$(PYTHON) scripts/bench.py report --tier $(TIER) --runs $(RUNS) -o docs/benchmarks/$(REPORT).md --assets docs/benchmarks/$(REPORT) $(GIVEN)
 
 define scene_rules
 $(call ref_of,$(call name_of,$(1))): $(call path_of,$(1))
 	@mkdir -p $(REF_DIR)
 	@echo "reference $(call name_of,$(1)): $(call ref_spp,$(call name_of,$(1))) spp at scale $(SCALE) (once; kept in $(REF_DIR))"
-	IRIS_BIN=$(BIN) python3 scripts/bench.py reference --scene $(call path_of,$(1)) --scale $(SCALE) \
+	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench.py reference --scene $(call path_of,$(1)) --scale $(SCALE) \
 	  --spp $(call ref_spp,$(call name_of,$(1))) -o $$@
 
 $(RUNS)/$(call name_of,$(1))/results.json: $(call ref_of,$(call name_of,$(1))) FORCE
 	@echo "runs $(call name_of,$(1)): budgets $(BUDGETS) s, modes $(MODES)"
-	IRIS_BIN=$(BIN) python3 scripts/bench.py runs --scene $(call path_of,$(1)) --name $(call name_of,$(1)) \
+	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench.py runs --scene $(call path_of,$(1)) --name $(call name_of,$(1)) \
 	  --scale $(SCALE) --budgets $(BUDGETS) --modes $(MODES) --repeats $(REPEATS) --reference $$< \
 	  --out $(RUNS)/$(call name_of,$(1)) $(PIPELINE)
 endef
 $(foreach s,$(SCENES_ALL),$(eval $(call scene_rules,$(s))))
+
+# Re-draws the committed reports' plots from their tables (no renders; the budget on the time axis).
+plots:
+	$(PYTHON) scripts/bench.py plots $(wildcard docs/benchmarks/full*.md docs/benchmarks/quick*.md)

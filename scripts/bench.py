@@ -6,11 +6,13 @@ Subcommands (each writes files; bench.mk decides what is stale):
   runs       for one scene: the guided pipeline's preprocessing once, then every mode at a ladder of
              total time budgets (preprocessing counted inside a guided budget), each compared against
              the reference; all figures in results.json
-  report     tables, log-log plots (SVG) and image crops for every scene of a tier
+  report     tables, log-log plots (matplotlib: PNG and SVG) and image crops for every scene of a tier
+  plots      re-draws the plots of committed reports from their tables (budget on the time axis)
   params     the parameter studies on one scene: one pipeline setting varied at a time, fixed guiding
              against nee+bsdf at one total budget; a markdown table per setting
 
-Only the Python standard library is used. Times are wall seconds on this machine, measured around each
+The Python standard library, and matplotlib for the plots (run it with Debian's /usr/bin/python3,
+which has python3-matplotlib; pipelines/bench.mk does). Times are wall seconds on this machine, measured around each
 tool's whole command (scene loading and atlas loading included), so that modes are compared at equal
 total cost. Efficiency = 1 / (relMSE x time); its ratio to nee+bsdf at the same budget is the headline.
 """
@@ -303,66 +305,84 @@ COLOURS = {"nee+bsdf": "#444444", "nee+bsdf+cache": "#1f77b4", "auto": "#d62728"
            "bsdf+cache": "#9467bd"}
 
 
-def svg_plot(title, series, path):
-    """Log-log relMSE against total seconds, one polyline per mode."""
-    import math
-    pts = [(x, y) for s in series.values() for x, y in s if y > 0]
+def plot(title, series, path, xlabel="total seconds (preprocessing included)"):
+    """Log-log relMSE against seconds, one line per mode, with matplotlib (Debian python3-matplotlib):
+    path + ".png" and path + ".svg" (path without extension)."""
+    pts = [(x, y) for s in series.values() for x, y in s if x > 0 and y > 0]
     if not pts:
         return
-    W, H, L, R, T, B = 520, 360, 70, 150, 30, 50
-    lx = [math.log10(x) for x, _ in pts]
-    ly = [math.log10(y) for _, y in pts]
-    x0, x1 = math.floor(min(lx) * 4) / 4, math.ceil(max(lx) * 4) / 4 + 1e-9
-    y0, y1 = math.floor(min(ly) * 2) / 2, math.ceil(max(ly) * 2) / 2 + 1e-9
-    if x1 - x0 < 0.3:
-        x1 = x0 + 0.5
-    if y1 - y0 < 0.5:
-        y1 = y0 + 1
+    import matplotlib
+    matplotlib.use("Agg")  # files only, no display
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
+    for mode, s in series.items():
+        s = sorted((x, y) for x, y in s if x > 0 and y > 0)
+        if s:
+            ax.plot([x for x, _ in s], [y for _, y in s], marker="o", linewidth=2, markersize=4,
+                    color=COLOURS.get(mode, "#000000"), label=mode)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    # Ticks at the measured times (15, 30, 60, 120) and at 1, 2, 5 x powers of ten of relMSE, as plain
+    # numbers rather than powers of ten.
+    ax.set_xticks(sorted({x for x, _ in pts}) if len({x for x, _ in pts}) <= 8 else [])
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: "%g" % v))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.yaxis.set_major_locator(LogLocator(base=10, subs=(1, 2, 5)))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: "%g" % v))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("relMSE")
+    ax.set_title(title)
+    ax.grid(True, which="both", color="#dddddd", linewidth=0.6)
+    ax.legend(loc="upper right", frameon=False)
+    fig.tight_layout()
+    # No timestamps in the files, so that re-plotting the same data changes nothing in git.
+    fig.savefig(path + ".png", metadata={"Software": None})
+    fig.savefig(path + ".svg", metadata={"Date": None, "Creator": None})
+    plt.close(fig)
 
-    def X(v):
-        return L + (math.log10(v) - x0) / (x1 - x0) * (W - L - R)
 
-    def Y(v):
-        return T + (y1 - math.log10(v)) / (y1 - y0) * (H - T - B)
-
-    o = ['<svg xmlns="http://www.w3.org/2000/svg" width="%d" height="%d" font-family="sans-serif" font-size="12">'
-         % (W, H), '<rect width="100%" height="100%" fill="white"/>',
-         '<text x="%d" y="18" font-size="14">%s</text>' % (L, title)]
-    # Grid lines at powers of ten (and 2x, 5x for time).
-    e = math.floor(y0)
-    while e <= y1:
-        for m in (1, 2, 5):
-            v = m * 10 ** e
-            if y0 <= math.log10(v) <= y1:
-                o.append('<line x1="%d" x2="%d" y1="%.1f" y2="%.1f" stroke="#ddd"/>' % (L, W - R, Y(v), Y(v)))
-                o.append('<text x="%d" y="%.1f" text-anchor="end">%g</text>' % (L - 4, Y(v) + 4, v))
-        e += 1
-    e = math.floor(x0)
-    while e <= x1:
-        for m in (1, 2, 5):
-            v = m * 10 ** e
-            if x0 <= math.log10(v) <= x1:
-                o.append('<line x1="%.1f" x2="%.1f" y1="%d" y2="%d" stroke="#ddd"/>' % (X(v), X(v), T, H - B))
-                o.append('<text x="%.1f" y="%d" text-anchor="middle">%g</text>' % (X(v), H - B + 16, v))
-        e += 1
-    o.append('<text x="%d" y="%d" text-anchor="middle">total seconds (preprocessing included)</text>'
-             % ((L + W - R) // 2, H - 12))
-    o.append('<text transform="translate(16,%d) rotate(-90)" text-anchor="middle">relMSE</text>' % ((T + H - B) // 2))
-    for i, (mode, s) in enumerate(series.items()):
-        s = sorted((x, y) for x, y in s if y > 0)
-        if not s:
+def read_report_tables(md):
+    """The per-scene ladders of a committed report (docs/benchmarks/<report>.md, written by `report`):
+    {name: (title, {mode: [(budget seconds, relMSE), ...]})}. The report keeps the budgets, not each
+    render's measured total seconds (results.json, under out/bench/, not committed), so plots made from
+    it put the budget on the time axis; the measured totals are within a few percent of it."""
+    scenes, name, title, modes = {}, None, None, None
+    for line in open(md):
+        m = re.match(r"### `([^`]+)` \((\d+x\d+)", line)
+        if m:
+            name, title, modes = m.group(1), "%s (%s)" % (m.group(1), m.group(2)), None
             continue
-        c = COLOURS.get(mode, "#000")
-        o.append('<polyline fill="none" stroke="%s" stroke-width="2" points="%s"/>'
-                 % (c, " ".join("%.1f,%.1f" % (X(x), Y(y)) for x, y in s)))
-        for x, y in s:
-            o.append('<circle cx="%.1f" cy="%.1f" r="3" fill="%s"/>' % (X(x), Y(y), c))
-        o.append('<line x1="%d" x2="%d" y1="%d" y2="%d" stroke="%s" stroke-width="2"/>'
-                 % (W - R + 10, W - R + 30, T + 10 + 18 * i, T + 10 + 18 * i, c))
-        o.append('<text x="%d" y="%d">%s</text>' % (W - R + 36, T + 14 + 18 * i, mode))
-    o.append("</svg>")
-    with open(path, "w") as f:
-        f.write("\n".join(o) + "\n")
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if name and line.startswith("| budget (s) |"):
+            modes = [c[:-len(" relMSE (spp)")] for c in cells[1:] if c.endswith(" relMSE (spp)")]
+            scenes[name] = (title, {mm: [] for mm in modes})
+            continue
+        if name and modes and re.match(r"\| [0-9.]+ \|", line):
+            budget = float(cells[0])
+            vals = [c for c in cells[1:] if re.match(r"[0-9.e+-]+ \(\d+\)$", c)]
+            for mm, v in zip(modes, vals):
+                scenes[name][1][mm].append((budget, float(v.split()[0])))
+        elif modes and not line.startswith("|"):
+            modes = None if line.strip() else modes
+    return scenes
+
+
+def cmd_plots(a):
+    """Re-draws the plots of committed reports from their tables (no runs needed)."""
+    for md in a.reports:
+        tier = os.path.splitext(os.path.basename(md))[0]
+        assets = os.path.join(os.path.dirname(md), tier)
+        scenes = read_report_tables(md)
+        if not scenes:
+            sys.exit("bench.py: error: %s: no per-scene relMSE tables found" % md)
+        os.makedirs(assets, exist_ok=True)
+        # The report's own prefix for its files: "full-bidir.svg" in docs/benchmarks/full-ring/ too.
+        prefix = "quick" if tier.startswith("quick") else "full"
+        for name, (title, series) in scenes.items():
+            plot(title, series, os.path.join(assets, "%s-%s" % (prefix, name)), xlabel="total seconds (the budget)")
+            print("%s: %s-%s.png, .svg" % (assets, prefix, name))
 
 
 def cmd_report(a):
@@ -467,9 +487,9 @@ def cmd_report(a):
                                                                      ("; " + x["decision"]) if x.get("decision") else ""))
         lines.append("")
         series = {m: [(x["total"], x["relmse"]) for (mm, b), x in by.items() if mm == m] for m in modes}
-        svg = os.path.join(a.assets, "%s-%s.svg" % (a.tier, name))
-        svg_plot("%s (%s)" % (name, r["resolution"]), series, svg)
-        lines += ["![relMSE against time, %s](%s)" % (name, os.path.join(rel_assets, os.path.basename(svg))), ""]
+        stem = os.path.join(a.assets, "%s-%s" % (a.tier, name))
+        plot("%s (%s)" % (name, r["resolution"]), series, stem)
+        lines += ["![relMSE against time, %s](%s)" % (name, os.path.join(rel_assets, os.path.basename(stem) + ".png")), ""]
         # Crops at the largest budget, beside each other: the third of the image (in a 3 x 3 grid) where
         # the unguided render is furthest from the reference, i.e. where a difference can show.
         w, h = (int(v) for v in r["resolution"].split("x"))
@@ -558,6 +578,9 @@ def main():
     q.add_argument("--out", required=True)
     q.add_argument("-o", "--output", required=True)
     q.set_defaults(func=cmd_params)
+    g = sub.add_parser("plots", help="re-draw a committed report's plots from its tables")
+    g.add_argument("reports", nargs="+", help="docs/benchmarks/<report>.md")
+    g.set_defaults(func=cmd_plots)
     a = p.parse_args()
     a.func(a)
 

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs everything iris needs to build and test, from Debian packages. Run as root (or with sudo).
+# Installs everything iris needs to build and test, from Debian packages (python3-matplotlib: the
+# benchmark plots, scripts/bench.py). Run as root (or with sudo).
 set -euo pipefail
 SUDO=""
 if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
@@ -8,5 +9,6 @@ $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends \
   build-essential cmake make pkg-config \
   libembree-dev libopenexr-dev libimath-dev libhdf5-dev hdf5-tools libcli11-dev libtinyobjloader-dev \
-  libtbb-dev libnanoflann-dev libpugixml-dev libgtest-dev libpng-dev zlib1g-dev >/dev/null
+  libtbb-dev libnanoflann-dev libpugixml-dev libgtest-dev libpng-dev zlib1g-dev \
+  python3 python3-matplotlib >/dev/null
 echo "install-deps: done"
