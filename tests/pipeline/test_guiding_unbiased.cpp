@@ -49,11 +49,15 @@ struct Mode {
     const char* extra = "";
 };
 // The last: the deep setting --mode auto may choose (every vertex guided, less roulette).
+// The last two: hybrid caches (render --learn), the maps refit from photons and path samples after
+// 1, 2, 4, ... 512 spp, the fixed and the deep setting.
 const Mode kModes[] = {{"nee+cache", 1024, false},
                        {"bsdf+cache", 4096, true},
                        {"nee+bsdf+cache", 1024, false},
-                       {"nee+bsdf+cache", 1024, false, "--guide-vertices 0 --rr-threshold 0.1"}};
-constexpr int kModeCount = 4;
+                       {"nee+bsdf+cache", 1024, false, "--guide-vertices 0 --rr-threshold 0.1"},
+                       {"nee+bsdf+cache", 1024, false, "--learn"},
+                       {"nee+bsdf+cache", 1024, false, "--guide-vertices 0 --rr-threshold 0.1 --learn"}};
+constexpr int kModeCount = 6;
 
 // Two-sided normal critical value for tail probability p: z with erfc(z / sqrt 2) = p (bisection).
 double normal_critical(double p) {
@@ -191,7 +195,9 @@ TEST(GuidingUnbiased, GuidedModesAgreeWithUnguidedPerPixel) {
 
     int seed = 2;
     for (const Mode& m : kModes) {
-        const std::string label = std::string(m.name) + (*m.extra ? " (deep)" : "");
+        const std::string extra = m.extra;
+        const std::string label = std::string(m.name) + (extra.find("--guide-vertices") != std::string::npos ? " (deep)" : "") +
+                                  (extra.find("--learn") != std::string::npos ? " (hybrid)" : "");
         SCOPED_TRACE(label + " " + m.extra);
         const Layers guided = render(scene, dir, "mode" + std::to_string(seed),
                                      std::string("--mode ") + m.name + " --spp " + std::to_string(m.spp) +

@@ -2,10 +2,12 @@
 
 #include <sys/mman.h>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdlib>
 #include <cmath>
 #include <stdexcept>
@@ -59,7 +61,7 @@ std::unique_ptr<unsigned char[], Guide::FreeTable> Guide::allocate_table(size_t 
 
 void Guide::FreeTable::operator()(unsigned char* p) const { std::free(p); }
 
-Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas)) {
+Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas)), options_(o) {
     const bool adaptive = o.bsdf_fraction < 0;
     if (!adaptive && !(o.bsdf_fraction < 1)) throw std::runtime_error("--bsdf-fraction must be in [0, 1)");
     if (!(o.min_gain >= 1) || !std::isfinite(o.min_gain)) throw std::runtime_error("--min-gain must be >= 1");
@@ -94,6 +96,30 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
             packed_map::encode(atlas_.pdf_row(c), R, dst + kHeader * sizeof(float));
         }
     });
+    if (o.learn) {
+        // The photon maps without their floor, for refit(): texel probability pdf * 4 pi / N, less the
+        // floor's f / N, over 1 - f (the inverse of SphereMap::normalise_floor).
+        const double f = atlas_.floor, omega = 4.0 * M_PI / double(N);
+        photon_pmf_.assign(n * N, 0.0f);
+        current_pmf_.assign(n * N, 0.0f);
+        path_used_.assign(n, 0);
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 64), [&](const tbb::blocked_range<size_t>& range) {
+            for (size_t c = range.begin(); c != range.end(); ++c) {
+                const float* pdf = atlas_.pdf_row(c);
+                double total = 0;
+                for (size_t k = 0; k < N; ++k) {
+                    current_pmf_[c * N + k] = float(double(pdf[k]) * omega);
+                    if (atlas_.usable[c] && f < 1) {
+                        const double p = std::max(0.0, (double(pdf[k]) * omega - f / double(N)) / (1 - f));
+                        photon_pmf_[c * N + k] = float(p);
+                        total += p;
+                    }
+                }
+                if (total > 0)
+                    for (size_t k = 0; k < N; ++k) photon_pmf_[c * N + k] = float(photon_pmf_[c * N + k] / total);
+            }
+        });
+    }
     std::vector<uint32_t> claimants;
     double sum_alpha = 0;
     for (size_t c = 0; c < n; ++c) {
@@ -112,7 +138,7 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
     atlas_.pdf = {};
     atlas_.cdf = {};
     summary_.mean_alpha = summary_.guiding == 0 ? 1.0 : sum_alpha / double(summary_.guiding);
-    if (summary_.guiding > 0) build_grid(claimants);
+    if (summary_.guiding > 0 || o.learn) build_grid(claimants);
 }
 
 void Guide::build_grid(const std::vector<uint32_t>& claimants) {
@@ -197,7 +223,9 @@ void Guide::fill_grid(Grid& g, float cell, const std::vector<float>& reach, cons
             const Vec3 half(0.5f * g.cell);
             for (int a = 0; a < 6; ++a) {
                 const int c = first_serving(claimants, idx, found, center - half, center + half, axes[a]);
-                s.answer[a] = c >= 0 && bsdf_fraction(c) < 1 ? c : -1;
+                // (Learning: every claimant answers; one that does not guide yet has BSDF share 1, so
+                // its vertices sample the BSDF alone and only record what they receive.)
+                s.answer[a] = c >= 0 && (options_.learn || bsdf_fraction(c) < 1) ? c : -1;
             }
         }
     });
@@ -265,6 +293,87 @@ Vec3 Guide::sample(int c, Vec2 u, int row, float* pdf) const {
     const Vec3 local = at_resolution([&](auto R) { return packed_map::sample(map(c), R, u, row, per_sr_, &p); });
     if (pdf) *pdf = p;
     return frame(c).to_world(local);
+}
+
+RefitSummary Guide::refit(const PathSamples& s) {
+    if (!learning()) throw std::logic_error("Guide::refit needs a guide built with GuideOptions::learn");
+    const size_t n = atlas_.size(), N = atlas_.texels();
+    if (s.caches() != n || s.texels() != N) throw std::logic_error("Guide::refit: path samples of another atlas");
+    const int R = atlas_.resolution;
+    const bool adaptive = options_.bsdf_fraction < 0;
+    const BsdfFractionChooser chooser(std::max(R, 1), std::min(atlas_.floor, 0.999), 0.2f);
+    const double floor = atlas_.floor;
+    // The fill-caches filter: filter_sigma texels, as an angle on the sphere.
+    const bool filtered = atlas_.filter_sigma > 0;
+    const SphereFilter filter(R, float(filtered ? atlas_.filter_sigma * std::sqrt(4.0 * M_PI / double(N)) : 0.0));
+    std::atomic<size_t> refit{0};
+    tbb::enumerable_thread_specific<SphereMap> scratch([&] { return SphereMap(R); });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 16), [&](const tbb::blocked_range<size_t>& range) {
+        SphereMap& m = scratch.local();
+        std::vector<float> cdf(N), pdf(N);
+        for (size_t c = range.begin(); c != range.end(); ++c) {
+            const uint32_t count = s.count(c);
+            if (count < kMinPathSamples || count == path_used_[c]) continue;
+            m.clear();
+            for (size_t k = 0; k < N; ++k) m[int(k)] = float(s.sum(c, k));
+            const double path_total = m.total();
+            if (!(path_total > 0)) continue;  // only zero-radiance samples so far: keep the photons' map
+            if (filtered) m.filter(filter);
+            // Mixed by sample counts: photons as photon_count, path samples as their number (each an
+            // estimate of the same distribution; the photon histogram is all zeros where unusable).
+            const double photons = atlas_.usable[c] ? double(atlas_.photon_count[c]) : 0.0;
+            const double lambda = double(count) / (double(count) + photons);
+            const double total = m.total();
+            const float* photon = &photon_pmf_[c * N];
+            for (size_t k = 0; k < N; ++k)
+                m[int(k)] = float(lambda * double(m[int(k)]) / total + (1 - lambda) * double(photon[k]));
+            m.normalise_floor(float(floor));
+            SphereDistribution::build(m.data(), R, cdf.data(), pdf.data());
+            const double omega = 4.0 * M_PI / double(N);
+            for (size_t k = 0; k < N; ++k) current_pmf_[c * N + k] = float(double(pdf[k]) * omega);
+            float alpha = 1.0f;
+            if (!adaptive) {
+                alpha = options_.bsdf_fraction;
+            } else if (const BsdfFractionChoice choice = chooser.choose(pdf.data()); choice.gain >= options_.min_gain) {
+                alpha = choice.alpha;
+            }
+            unsigned char* dst = table_.get() + c * stride_;
+            reinterpret_cast<float*>(dst)[kAlpha] = alpha;
+            packed_map::encode(pdf.data(), R, dst + kHeader * sizeof(float));
+            path_used_[c] = count;
+            refit += 1;
+        }
+    });
+    RefitSummary r;
+    r.refit = refit.load();
+    double sum_alpha = 0;
+    for (size_t c = 0; c < n; ++c)
+        if (bsdf_fraction(int(c)) < 1) {
+            ++r.guiding;
+            sum_alpha += bsdf_fraction(int(c));
+        }
+    summary_.guiding = r.guiding;
+    summary_.mean_alpha = r.guiding == 0 ? 1.0 : sum_alpha / double(r.guiding);
+    return r;
+}
+
+CacheAtlas Guide::refined_atlas() const {
+    if (!learning()) throw std::logic_error("Guide::refined_atlas needs a guide built with GuideOptions::learn");
+    CacheAtlas a = atlas_;
+    const size_t n = a.size(), N = a.texels();
+    a.pdf.assign(n * N, 0.0f);
+    a.cdf.assign(n * N, 0.0f);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 64), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t c = range.begin(); c != range.end(); ++c) {
+            // The current pmf is already floored: build() only normalises it and writes both tables.
+            SphereDistribution::build(&current_pmf_[c * N], a.resolution, &a.cdf[c * N], &a.pdf[c * N]);
+            if (path_used_[c] > 0) {
+                a.usable[c] = 1;
+                a.photon_count[c] += path_used_[c];
+            }
+        }
+    });
+    return a;
 }
 
 }  // namespace iris

@@ -5,6 +5,8 @@
 // (DESIGN 4.1, 4.2).
 #pragma once
 
+#include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -39,6 +41,49 @@ struct GuideOptions {
     // In [0, 1): this constant for every usable cache (the thesis's setting; for parameter studies).
     float bsdf_fraction = -1.0f;
     float min_gain = 1.25f;
+    // Hybrid caches: keep the photon maps so that refit() can mix them with the radiance the render's
+    // paths receive, and let every cache that gathered photons answer lookups (with BSDF share 1 until a
+    // refit makes it guide), so that paths also sample where the photons left a cache unusable or not
+    // worth guiding with.
+    bool learn = false;
+};
+
+// The radiance that guided path vertices received, per cache and texel of the cache's map, summed over
+// the render's passes: each sample adds L_i(w) cos(theta_c) / p(w) for the continuation direction w
+// (theta_c: against the cache's normal; p: the density w was sampled with), whose expectation per texel
+// is the integral of L_i cos over the texel -- the quantity a photon map's flux estimates, so that the
+// two can be mixed. Sums are 64-bit fixed point (kScale units of the value): integer addition does not
+// depend on the order in which threads add, so the maps refit from them, and hence the image, are the
+// same for any thread count.
+class PathSamples {
+public:
+    PathSamples(size_t caches, size_t texels) : texels_(texels), sum_(caches * texels), count_(caches) {}
+    static constexpr double kScale = 4294967296.0;  // 2^32 units per unit of value
+    // Values above this are clamped (the map is only a guide; 2^16 x kScale x 2^15 samples fits 64 bits).
+    static constexpr float kMaxValue = 65536.0f;
+    void add(int cache, int texel, float value) {
+        const float v = value > 0 ? std::min(value, kMaxValue) : 0.0f;  // NaN -> 0
+        sum_[size_t(cache) * texels_ + size_t(texel)].fetch_add(uint64_t(double(v) * kScale + 0.5),
+                                                               std::memory_order_relaxed);
+        count_[size_t(cache)].fetch_add(1, std::memory_order_relaxed);
+    }
+    uint32_t count(size_t cache) const { return count_[cache].load(std::memory_order_relaxed); }
+    double sum(size_t cache, size_t texel) const {
+        return double(sum_[cache * texels_ + texel].load(std::memory_order_relaxed)) / kScale;
+    }
+    size_t texels() const { return texels_; }
+    size_t caches() const { return count_.size(); }
+
+private:
+    size_t texels_;
+    std::vector<std::atomic<uint64_t>> sum_;
+    std::vector<std::atomic<uint32_t>> count_;
+};
+
+// What a refit changed.
+struct RefitSummary {
+    size_t refit = 0;    // caches whose map now includes path samples
+    size_t guiding = 0;  // caches that guide after it
 };
 
 // What the guide decided at load time, for the render's report.
@@ -140,7 +185,28 @@ public:
     const GuideSummary& summary() const { return summary_; }
     // Bytes the guide holds per cache of an atlas of resolution R (its header and packed map).
     static size_t bytes_per_cache(int R) { return kHeader * sizeof(float) + packed_map::bytes(R); }
-    bool empty() const { return summary_.guiding == 0; }
+    bool empty() const { return summary_.guiding == 0 && !learning(); }
+
+    // Hybrid caches (GuideOptions::learn). Whether the guide keeps its photon maps for refit().
+    bool learning() const { return !photon_pmf_.empty(); }
+    // Texel index k = j R + i of the world direction w in cache c's map, and w's cosine against the
+    // cache's normal.
+    int texel_index(int c, Vec3 w) const {
+        const Texel t = texel(c, w);
+        return t.j * atlas_.resolution + t.i;
+    }
+    float cos_normal(int c, Vec3 w) const { return dot(frame(c).n, w); }
+    // Re-fits the map of every cache with at least kMinPathSamples samples in `s` from its photon map
+    // and the path samples: the two normalised histograms mixed by their sample counts (photons counted
+    // as photon_count, path samples as their number), the path histogram smoothed with the atlas's
+    // filter, the atlas's floor mixed in, as fill-caches does; then its BSDF share is chosen again and
+    // its packed map rebuilt. Must not run while any thread samples the guide (the render calls it
+    // between passes).
+    RefitSummary refit(const PathSamples& s);
+    static constexpr uint32_t kMinPathSamples = 32;
+    // The atlas with the maps as they stand (photons and path samples), for render --write-atlas:
+    // refit caches are usable, and their photon_count holds photons plus path samples.
+    CacheAtlas refined_atlas() const;
 
 private:
     // Calls f with the maps' resolution: as the compile-time constant kFastResolution where the atlas
@@ -234,6 +300,11 @@ private:
         return f;
     }
     GuideSummary summary_;
+    // With learning: per cache, the photon map as a pmf without its floor (N values summing to 1; all
+    // zero for unusable caches), and the current map's pmf (floored) as the guide samples it.
+    std::vector<float> photon_pmf_, current_pmf_;
+    std::vector<uint32_t> path_used_;  // path samples in each cache's current map
+    GuideOptions options_;
 };
 
 }  // namespace iris

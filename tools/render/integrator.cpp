@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <stdexcept>
 #include <thread>
 
@@ -44,7 +45,7 @@ inline bool guidable(const Bsdf& b) {
 }  // namespace
 
 RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSettings& ps, PathCounters& counters,
-               RGB* caustic) {
+               RGB* caustic, PathSamples* samples) {
     const Guide* guide = ps.guide;
     const bool use_nee = ps.mode != GuideMode::BsdfCache;
     RGB L(0.0f), beta(1.0f);
@@ -56,6 +57,29 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
     SurfaceHit hit;
     int guided_vertices = 0;   // vertices at which a cache was looked up so far
     bool caustic_chain = false;  // so far: a non-Dirac event at the first vertex, Dirac ones after it
+    // Hybrid caches: the vertices a cache served, each with what it needs to turn the radiance the path
+    // gathers after it into the radiance its continuation received: L before the continuation's
+    // contributions, the throughput after the vertex (luminance), and cos(theta_c) / p of the
+    // continuation direction (its texel in the cache's map).
+    struct Recorded {
+        int cache, texel;
+        float cos_over_pdf, beta_after;
+        RGB L_before;
+    };
+    constexpr int kMaxRecorded = 16;
+    Recorded recorded[kMaxRecorded];
+    int n_recorded = 0;
+    auto record = [&](int c, Vec3 wo_world, float p) {
+        if (n_recorded == kMaxRecorded) return;
+        const float cos_c = guide->cos_normal(c, wo_world);
+        const float b = luminance(beta);
+        if (!(cos_c > 0) || !(p > 0) || !(b > 0)) {
+            // A direction below the cache's horizon, or a path carrying nothing: counts as a zero sample.
+            samples->add(c, guide->texel_index(c, wo_world), 0.0f);
+            return;
+        }
+        recorded[n_recorded++] = {c, guide->texel_index(c, wo_world), cos_c / p, b, L};
+    };
     for (int depth = 1;; ++depth) {
         ++counters.rays;
         if (!scene.intersect(ray, &hit)) {
@@ -249,6 +273,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 beta *= bs.weight * (bs.pdf / p);
                 prev_pdf = p;
                 prev_delta = false;
+                if (samples) record(cache, wo_world, p);
             }
         } else {
             float p_cache;
@@ -261,6 +286,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             beta *= f / p;
             prev_pdf = p;
             prev_delta = false;
+            if (samples) record(cache, wo_world, p);
         }
         if (is_black(beta)) break;
         caustic_chain = depth == 1 ? !prev_delta : caustic_chain && prev_delta;
@@ -275,6 +301,13 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             if (!(rng.next_float() < q)) break;
             beta /= q;
         }
+    }
+    // What each recorded vertex's continuation received: the radiance gathered after it, over the
+    // throughput it had then (roulette's 1/q included: an unbiased estimate of L_i along it).
+    for (int r = 0; r < n_recorded; ++r) {
+        const Recorded& v = recorded[r];
+        const float li = luminance(L - v.L_before) / v.beta_after;
+        samples->add(v.cache, v.texel, li * v.cos_over_pdf);
     }
     return L;
 }
@@ -638,6 +671,17 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     ps.light_traced_caustics = light_paths_per_sample > 0;
     Progress progress("render", timed ? uint64_t(opt.time * 1000) : uint64_t(target_spp) * tile_count, opt.quiet);
 
+    // Hybrid caches: what the guided vertices receive (only while the chosen setting guides).
+    if (opt.learn && opt.learn != opt.guide) throw std::runtime_error("render: the learning guide must be the guide");
+    if (opt.learn && !opt.learn->learning()) throw std::runtime_error("render: the guide was not built to learn");
+    std::unique_ptr<PathSamples> path_samples;
+    if (opt.learn && ps.guide)
+        path_samples = std::make_unique<PathSamples>(opt.learn->atlas().size(), opt.learn->atlas().texels());
+    int next_refit = 1;  // samples per pixel after which the maps are next refit
+    int refits = 0;
+    double refit_seconds = 0;
+    RefitSummary last_refit;
+
     // One pass renders samples [s0, s1) of every pixel. Each sample's random numbers come from
     // (seed, pixel, sample index), so the image does not depend on threads or on how passes are cut.
     auto run_pass = [&](int s0, int s1) {
@@ -655,7 +699,8 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
                         float w;
                         Vec2 off = filter.sample({rng.next_float(), rng.next_float()}, &w);
                         float fx = x + 0.5f + off.x, fy = y + 0.5f + off.y;
-                        RGB l = trace_path(scene, camera_ray(camera, fx, fy, width, height), rng, ps, counters);
+                        RGB l = trace_path(scene, camera_ray(camera, fx, fy, width, height), rng, ps, counters,
+                                           nullptr, path_samples.get());
                         if (!is_finite(l) || !std::isfinite(w)) {
                             ++bad;  // counted and reported; the sample still counts with zero radiance
                             l = RGB(0.0f);
@@ -719,6 +764,12 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         else if (opt.auto_guide)  // (without a guide: the atlas had no cache that guides; no pilot ran)
             img.metadata["iris:auto_guide"] = "unguided: no cache in the atlas guides";
         if (ps.guide) img.metadata["iris:guiding"] = describe(ps);
+        if (path_samples) {
+            char buf[160];
+            std::snprintf(buf, sizeof buf, "%d refits from path samples (%.3f s), %zu caches refit, %zu guiding", refits,
+                          refit_seconds, last_refit.refit, last_refit.guiding);
+            img.metadata["iris:hybrid_caches"] = buf;
+        }
         img.metadata["iris:light_paths"] = std::to_string(uint64_t(spp) * light_paths_per_sample);
         if (opt.caustics != RenderOptions::Caustics::Off)
             img.metadata["iris:caustics"] = light_paths_per_sample > 0 ? "light-traced, " + std::to_string(light_paths_per_sample) +
@@ -737,9 +788,19 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     double last_snapshot = 0;
     int pass = 1;
     while (spp < target_spp) {
-        const int n = (timed || snapshots) ? std::min(pass, target_spp - spp) : target_spp;
+        int n = (timed || snapshots) ? std::min(pass, target_spp - spp) : target_spp - spp;
+        // Learning: a pass ends where the maps are refit, so that which maps a sample sees depends on its
+        // index only, not on how the time budget cut the passes.
+        if (path_samples) n = std::min(n, next_refit - spp);
         run_pass(spp, spp + n);
         spp += n;
+        if (path_samples && spp == next_refit) {
+            const double t0 = elapsed();
+            last_refit = opt.learn->refit(*path_samples);
+            refit_seconds += elapsed() - t0;
+            ++refits;
+            next_refit = next_refit < (1 << 29) ? 2 * next_refit : 1 << 30;
+        }
         const double t = elapsed();
         progress.advance(0);
         if (spp >= target_spp) break;
@@ -773,6 +834,9 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         stats->nonfinite = nonfinite.load();
         stats->light_paths = uint64_t(spp) * light_paths_per_sample;
         stats->threads = threads;
+        stats->refits = refits;
+        stats->refit_seconds = refit_seconds;
+        stats->last_refit = last_refit;
     }
     return img;
 }

@@ -43,6 +43,12 @@ struct RenderOptions {
     double light_paths_per_pixel = 0;  // light paths per pixel and pass; 0 = 1 (On) or the pilot's choice (Auto)
     // Progressive snapshots: when > 0 and `snapshot` is set, it is called with the image so far about
     // every `snapshot_interval` seconds (between passes, on the calling thread).
+    // Hybrid caches: where set (the same object as `guide`, built with GuideOptions::learn), the render
+    // adds the radiance its guided vertices receive to their caches and refits the caches' maps from
+    // photons and path samples after the passes that end at 1, 2, 4, 8, ... samples per pixel (passes are
+    // cut there). The maps a pass samples depend only on the passes before it, so the estimator stays
+    // unbiased, and the image depends on the seed and the samples per pixel only.
+    Guide* learn = nullptr;
     double snapshot_interval = 0;
     std::function<void(const Image&)> snapshot;
 };
@@ -104,6 +110,9 @@ struct RenderStats {
     uint64_t rays = 0;           // rays cast (closest-hit and shadow)
     uint64_t nonfinite = 0;      // samples discarded because they were NaN or Inf
     uint64_t light_paths = 0;    // caustic light paths traced (0: not light-traced)
+    int refits = 0;              // hybrid caches: refits of the maps from path samples
+    double refit_seconds = 0;    // their wall time (inside `seconds`)
+    RefitSummary last_refit;
     int threads = 0;
 };
 
@@ -166,8 +175,10 @@ class Rng;
 // unless the scene data are degenerate; callers still check. Where `caustic` is given it receives the
 // sample's part in the caustic class (caustics.h), which the result leaves out when
 // ps.light_traced_caustics.
+// Where `samples` is given (hybrid caches: ps.guide learning), each vertex a cache serves adds the
+// radiance its continuation received to that cache's texel (PathSamples); the path itself is the same.
 RGB trace_path(const Scene& scene, const Ray& ray, Rng& rng, const PathSettings& ps, PathCounters& counters,
-               RGB* caustic = nullptr);
+               RGB* caustic = nullptr, PathSamples* samples = nullptr);
 
 // Renders the image. Throws std::runtime_error on invalid options.
 Image render_image(const Scene& scene, const RenderOptions& options, RenderStats* stats);

@@ -65,6 +65,14 @@ int main(int argc, char** argv) {
     app.add_option("--snapshot", opt.snapshot_interval,
                    "Every SECONDS, write the image so far to the output (atomically), so that an interrupted "
                    "render still leaves a usable image");
+    bool learn = false;
+    std::string write_atlas;
+    app.add_flag("--learn", learn,
+                 "With --atlas: hybrid caches -- the caches' maps are refit from their photons plus the radiance the "
+                 "render's paths receive, after 1, 2, 4, 8, ... samples per pixel");
+    app.add_option("--write-atlas", write_atlas,
+                   "With --learn: write the refit cache atlas (photons + path samples) to this HDF5 file, for reuse "
+                   "as --atlas");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     if (int rc = iris::parse_command_line(app, argc, argv, "render"); rc >= 0) return rc;
     try {
@@ -84,6 +92,11 @@ int main(int argc, char** argv) {
         if (app.count("--light-paths") && !(opt.light_paths_per_pixel > 0 && opt.light_paths_per_pixel <= 1024))
             throw std::runtime_error("--light-paths must be in (0, 1024]");
         if (opt.auto_guide && atlas_path.empty()) throw std::runtime_error("--mode auto needs --atlas");
+        if (learn && atlas_path.empty()) throw std::runtime_error("--learn needs --atlas");
+        if (learn && opt.mode == iris::GuideMode::NeeBsdf) throw std::runtime_error("--learn needs a guided --mode");
+        if (!write_atlas.empty() && !learn) throw std::runtime_error("--write-atlas needs --learn");
+        if (!write_atlas.empty()) iris::check_output_path(write_atlas);
+        guide_options.learn = learn;
         if (bsdf_fraction != "auto") {
             guide_options.bsdf_fraction = iris::parse_float_option("--bsdf-fraction", bsdf_fraction);
             if (!(guide_options.bsdf_fraction >= 0 && guide_options.bsdf_fraction < 1))
@@ -123,6 +136,7 @@ int main(int argc, char** argv) {
                                           "through specular chains), rendering unguided");
             // A guide without caches would only cost lookups.
             if (!guide->empty()) opt.guide = guide.get();
+            if (learn && opt.guide) opt.learn = guide.get();
         } else if (atlas_path.empty() && (opt.mode == iris::GuideMode::NeeCache)) {
             throw std::runtime_error("--mode nee+cache needs --atlas");
         }
@@ -130,6 +144,19 @@ int main(int argc, char** argv) {
         iris::RenderStats stats;
         iris::Image img = iris::render_image(scene, opt, &stats);
         iris::write_exr(output, img);
+        if (!write_atlas.empty()) {
+            iris::Provenance prov;
+            prov.tool = "render";
+            prov.tool_version = IRIS_VERSION;
+            prov.command_line = opt.command_line;
+            prov.inputs = atlas_path + " " + iris::file_fingerprint(atlas_path);
+            prov.seed = opt.seed;
+            prov.parameters = {{"spp", double(stats.spp)}, {"refits", double(stats.refits)}};
+            iris::write_cache_atlas(write_atlas, guide->refined_atlas(), scene.fingerprint, prov);
+        }
+        if (!opt.quiet && stats.refits > 0)
+            std::fprintf(stderr, "render: hybrid caches: %d refits from path samples (%.2f s), %zu caches refit, %zu guiding\n",
+                         stats.refits, stats.refit_seconds, stats.last_refit.refit, stats.last_refit.guiding);
         if (!opt.quiet)
             std::fprintf(stderr, "render: wrote %s (%dx%d, %d spp, %.2f s, %.2f Mpaths/s, %.2f Mrays/s%s)\n",
                          output.c_str(), img.width, img.height, stats.spp, stats.seconds,
