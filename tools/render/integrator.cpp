@@ -794,7 +794,8 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         if (path_samples) n = std::min(n, next_refit - spp);
         run_pass(spp, spp + n);
         spp += n;
-        if (path_samples && spp == next_refit) {
+        // (Not after the last pass: no sample would see that refit.)
+        if (path_samples && spp == next_refit && spp < target_spp) {
             const double t0 = elapsed();
             last_refit = opt.learn->refit(*path_samples);
             refit_seconds += elapsed() - t0;

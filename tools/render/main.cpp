@@ -71,8 +71,8 @@ int main(int argc, char** argv) {
                  "With --atlas: hybrid caches -- the caches' maps are refit from their photons plus the radiance the "
                  "render's paths receive, after 1, 2, 4, 8, ... samples per pixel");
     app.add_option("--write-atlas", write_atlas,
-                   "With --learn: write the refit cache atlas (photons + path samples) to this HDF5 file, for reuse "
-                   "as --atlas");
+                   "With --learn: write the refit cache atlas (photons + path samples; the maps the last pass sampled) to "
+                   "this HDF5 file, for reuse as --atlas");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     if (int rc = iris::parse_command_line(app, argc, argv, "render"); rc >= 0) return rc;
     try {
