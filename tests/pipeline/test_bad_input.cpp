@@ -89,7 +89,8 @@ protected:
     // winner's).
     static void SetUpTestSuite() {
         uint64_t stamp = 1469598103934665603ull;  // FNV-1a over the tools' modification times
-        for (const char* t : {"trace-photons", "place-caches", "fill-caches", "render", "compare-images", "inspect-caches"}) {
+        for (const char* t : {"trace-photons", "place-caches", "fill-caches", "render", "compare-images", "inspect-caches",
+                              "merge-images", "merge-photons"}) {
             const auto ticks = uint64_t(fs::last_write_time(tool(t)).time_since_epoch().count());
             stamp = (stamp ^ ticks) * 1099511628211ull;
         }
@@ -130,12 +131,25 @@ protected:
             in("furnace_atlas.h5") + " --k 20 --resolution 4" + q);
         run(tool("render") + " " + furnace + " -o " + in("image.exr") + " --spp 4" + q);
         run(tool("render") + " " + furnace + " -o " + in("small.exr") + " --spp 4 --resolution 8x8" + q);
+        // Parts of a render (render --sample-range) and of a photon map (trace-photons --path-range).
+        const std::string part = tool("render") + " " + furnace + " --spp 4 --resolution 8x8" + q;
+        run(part + " --sample-range 0:2 -o " + in("part_a.exr"));
+        run(part + " --sample-range 2:4 -o " + in("part_b.exr"));
+        run(part + " --sample-range 1:3 -o " + in("part_overlap.exr"));
+        run(part + " --sample-range 2:4 --max-depth 3 -o " + in("part_depth.exr"));
+        run(tool("render") + " " + caustic + " --spp 4 --resolution 8x8 --sample-range 2:4 -o " + in("part_other_scene.exr") + q);
+        const std::string ppart = tool("trace-photons") + " " + caustic + " --paths 2000" + q;
+        run(ppart + " --path-range 0:1000 -o " + in("photons_a.h5"));
+        run(ppart + " --path-range 1000:2000 -o " + in("photons_b.h5"));
+        run(ppart + " --path-range 500:1500 -o " + in("photons_overlap.h5"));
+        run(ppart + " --path-range 1000:2000 --max-depth 3 -o " + in("photons_depth.h5"));
+        run(tool("trace-photons") + " " + furnace + " --paths 2000 --path-range 1000:2000 -o " + in("photons_other_scene.h5") + q);
 
         // Files that are not what they claim to be.
         write_text(in("text.h5"), "not an HDF5 file\n");
         write_text(in("empty.h5"), "");
         write_text(in("text.exr"), "not an image\n");
-        for (const char* name : {"photons.h5", "caches.h5", "atlas.h5", "image.exr"}) {
+        for (const char* name : {"photons.h5", "caches.h5", "atlas.h5", "image.exr", "part_b.exr", "photons_b.h5"}) {
             const std::string bytes = read_bytes(in(name));
             write_text(in(std::string("truncated_") + name), bytes.substr(0, bytes.size() / 2));
         }
@@ -196,7 +210,7 @@ TEST_P(BadInput, OneLineErrorNoOutput) {
     const BadInputCase& c = GetParam();
     TempDir out_dir;
     const std::string tool_name = c.tool;
-    const std::string ext = tool_name == "render" || tool_name == "inspect-caches" ? ".exr"
+    const std::string ext = tool_name == "render" || tool_name == "inspect-caches" || tool_name == "merge-images" ? ".exr"
                             : tool_name == "compare-images"                      ? ".png"
                                                                                  : ".h5";
     const std::string out = out_dir.file("out" + ext);
@@ -275,6 +289,12 @@ const BadInputCase kCases[] = {
     {"RenderUnknownCaustics", "render", "--caustics that does not exist", "{in}/valid.xml --caustics sometimes -o {out}", "sometimes"},
     {"RenderLightPathsZero", "render", "--light-paths 0", "{in}/valid.xml --caustics on --light-paths 0 -o {out}", "--light-paths"},
     {"RenderCacheModeWithoutAtlas", "render", "--mode nee+cache without --atlas", "{in}/valid.xml --mode nee+cache -o {out}", "--atlas"},
+    {"RenderSampleRangeWithTime", "render", "--sample-range with --time", "{in}/valid.xml --time 1 --sample-range 0:2 -o {out}", "--time"},
+    {"RenderSampleRangeAuto", "render", "--sample-range with --mode auto (a pilot)", "{in}/caustic.xml --atlas {in}/atlas.h5 --mode auto --spp 4 --sample-range 0:2 -o {out}", "--mode auto"},
+    {"RenderSampleRangeBeyondSpp", "render", "--sample-range beyond --spp", "{in}/valid.xml --spp 4 --sample-range 2:8 -o {out}", "2:8"},
+    {"RenderSampleRangeReversed", "render", "--sample-range 5:2", "{in}/valid.xml --spp 8 --sample-range 5:2 -o {out}", "--sample-range"},
+    {"RenderSampleRangeSnapshot", "render", "--sample-range with --snapshot", "{in}/valid.xml --spp 4 --sample-range 0:2 --snapshot 5 -o {out}", "--snapshot"},
+    {"RenderSampleRangeLearn", "render", "--sample-range with --learn (maps refit from earlier samples)", "{in}/caustic.xml --atlas {in}/atlas.h5 --learn --spp 4 --sample-range 0:2 -o {out}", "--learn"},
     {"RenderUnknownFlag", "render", "a flag that does not exist", "{in}/valid.xml --no-such-flag -o {out}", "--no-such-flag"},
     {"RenderNoOutput", "render", "-o left out", "{in}/valid.xml", "--output"},
     {"RenderAtlasMissing", "render", "--atlas file does not exist", "{in}/valid.xml --atlas {in}/missing.h5 -o {out}", "missing.h5"},
@@ -293,6 +313,8 @@ const BadInputCase kCases[] = {
     {"TracePhotonsCausticShareAboveOne", "trace-photons", "--min-caustic-share 2", "{in}/valid.xml --min-caustic-share 2 -o {out}", "--min-caustic-share"},
     {"TracePhotonsNegativePaths", "trace-photons", "--paths -5 (once wrapped to 2^64-5)", "{in}/valid.xml --paths -5 -o {out}", "--paths"},
     {"TracePhotonsTextPaths", "trace-photons", "--paths abc", "{in}/valid.xml --paths abc -o {out}", "--paths"},
+    {"TracePhotonsPathRangeBeyond", "trace-photons", "--path-range beyond --paths", "{in}/caustic.xml --paths 100 --path-range 50:200 -o {out}", "--path-range 50:200"},
+    {"TracePhotonsPathRangeReversed", "trace-photons", "--path-range 5:2", "{in}/caustic.xml --paths 100 --path-range 5:2 -o {out}", "--path-range"},
     {"TracePhotonsZeroDepth", "trace-photons", "--max-depth 0", "{in}/valid.xml --max-depth 0 -o {out}", "--max-depth"},
     {"TracePhotonsNegativeDepth", "trace-photons", "--max-depth -3", "{in}/valid.xml --max-depth -3 -o {out}", "--max-depth"},
     {"TracePhotonsZeroRrDepth", "trace-photons", "--rr-depth 0", "{in}/valid.xml --rr-depth 0 -o {out}", "--rr-depth"},
@@ -354,6 +376,24 @@ const BadInputCase kCases[] = {
     {"InspectPixelOutside", "inspect-caches", "--pixel outside the image", "{in}/atlas.h5 --scene {in}/caustic.xml --pixel 999,4", "outside"},
     {"InspectOutputWithoutCache", "inspect-caches", "-o without --cache or --pixel", "{in}/atlas.h5 -o {out}", "--cache"},
     {"InspectBadLayout", "inspect-caches", "--layout that does not exist", "{in}/atlas.h5 --cache 0 --layout polar -o {out}", "--layout"},
+
+    // ---- merge-images ----
+    {"MergeImagesOverlap", "merge-images", "parts whose sample ranges overlap (0:2, 1:3)", "{in}/part_a.exr {in}/part_overlap.exr -o {out}", "overlap: both hold samples 1:2"},
+    {"MergeImagesMissingRange", "merge-images", "a part missing (0:2 of 4 spp given)", "{in}/part_a.exr -o {out}", "samples 2:4 missing"},
+    {"MergeImagesOtherScene", "merge-images", "parts of different scenes", "{in}/part_a.exr {in}/part_other_scene.exr -o {out}", "another scene"},
+    {"MergeImagesOtherSettings", "merge-images", "parts with different --max-depth", "{in}/part_a.exr {in}/part_depth.exr -o {out}", "max_depth 3"},
+    {"MergeImagesNotAPart", "merge-images", "a whole render given as a part", "{in}/part_a.exr {in}/image.exr -o {out}", "image.exr: not a part"},
+    {"MergeImagesTruncated", "merge-images", "a part cut off midway", "{in}/part_a.exr {in}/truncated_part_b.exr -o {out}", "truncated_part_b.exr"},
+    {"MergeImagesSamePartTwice", "merge-images", "one part given twice", "{in}/part_a.exr {in}/part_a.exr {in}/part_b.exr -o {out}", "overlap"},
+    {"MergeImagesOutputDirMissing", "merge-images", "output folder does not exist", "{in}/part_a.exr {in}/part_b.exr -o /nonexistent-dir/x.exr", "/nonexistent-dir/x.exr"},
+
+    // ---- merge-photons ----
+    {"MergePhotonsOverlap", "merge-photons", "parts whose path ranges overlap (0:1000, 500:1500)", "{in}/photons_a.h5 {in}/photons_overlap.h5 -o {out}", "overlap: both hold paths 500:1000"},
+    {"MergePhotonsMissingRange", "merge-photons", "a part missing (1000:2000 of 2000 paths)", "{in}/photons_b.h5 -o {out}", "paths 0:1000 missing"},
+    {"MergePhotonsOtherScene", "merge-photons", "parts of different scenes", "{in}/photons_a.h5 {in}/photons_other_scene.h5 -o {out}", "another scene"},
+    {"MergePhotonsOtherSettings", "merge-photons", "parts with different --max-depth", "{in}/photons_a.h5 {in}/photons_depth.h5 -o {out}", "max_depth"},
+    {"MergePhotonsNotAPart", "merge-photons", "a whole photon map given as a part", "{in}/photons_a.h5 {in}/photons.h5 -o {out}", "photons.h5: not a part"},
+    {"MergePhotonsTruncated", "merge-photons", "a part cut off midway", "{in}/photons_a.h5 {in}/truncated_photons_b.h5 -o {out}", "truncated_photons_b.h5"},
 
     // ---- compare-images ----
     {"CompareTestMissing", "compare-images", "test image does not exist", "{in}/missing.exr {in}/image.exr -o {out}", "missing.exr"},

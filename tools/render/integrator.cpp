@@ -17,6 +17,7 @@
 #include "libcommon/rng.h"
 #include "libcommon/sampling.h"
 #include "tools/render/caustics.h"
+#include "tools/render/film_parts.h"
 
 namespace iris {
 
@@ -616,6 +617,28 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     ps.rr_threshold = opt.rr_threshold == -1 ? kRouletteThreshold : opt.rr_threshold;
     const bool timed = opt.time > 0;
     const int target_spp = opt.spp > 0 ? opt.spp : (timed ? (1 << 30) : scene.defaults.spp);
+    const bool part = opt.sample_end > 0;
+    if (part) {
+        // Refused where the samples a range holds would depend on a measurement made in this process
+        // (a clock, a pilot): then the parts of one image could not add up to one run.
+        const std::string range = std::to_string(opt.sample_begin) + ":" + std::to_string(opt.sample_end);
+        if (timed) throw std::runtime_error("--sample-range needs a fixed --spp, not --time (a budget is not divisible into ranges)");
+        if (opt.auto_guide && opt.guide)
+            throw std::runtime_error("--sample-range cannot be used with --mode auto (its pilot's choice is measured per "
+                                     "process); give a fixed --mode, e.g. nee+bsdf+cache");
+        if (opt.caustics == RenderOptions::Caustics::Auto && CausticTracer::possible(scene))
+            throw std::runtime_error("--sample-range cannot be used with --caustics auto (its pilot's choice is measured per "
+                                     "process); give --caustics on or off");
+        if (opt.snapshot_interval > 0) throw std::runtime_error("--sample-range cannot be used with --snapshot (a snapshot is not a whole part)");
+        if (opt.learn)
+            throw std::runtime_error("--sample-range cannot be used with --learn (a sample's maps are refit from the samples "
+                                     "before it, which another process does not have)");
+        if (!(opt.sample_begin >= 0 && opt.sample_begin < opt.sample_end && opt.sample_end <= target_spp))
+            throw std::runtime_error("--sample-range " + range + " is not within the " + std::to_string(target_spp) +
+                                     " samples per pixel of the render (0 <= A < B <= spp)");
+        if (opt.sample_end - opt.sample_begin >= kMaxPartSpp)
+            throw std::runtime_error("--sample-range " + range + " holds more than " + std::to_string(kMaxPartSpp) + " samples");
+    }
 
     int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));
@@ -669,7 +692,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
             : 0;
     if (light_paths_per_sample > 0) film.enable_light(double(light_paths_per_sample));
     ps.light_traced_caustics = light_paths_per_sample > 0;
-    Progress progress("render", timed ? uint64_t(opt.time * 1000) : uint64_t(target_spp) * tile_count, opt.quiet);
+    Progress progress("render", timed ? uint64_t(opt.time * 1000) : uint64_t(part ? opt.sample_end - opt.sample_begin : target_spp) * tile_count, opt.quiet);
 
     // Hybrid caches: what the guided vertices receive (only while the chosen setting guides).
     if (opt.learn && opt.learn != opt.guide) throw std::runtime_error("render: the learning guide must be the guide");
@@ -723,31 +746,26 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     // The image as it stands after `spp` samples per pixel (the final one, or a progressive snapshot).
     auto make_image = [&](int spp, double seconds) {
         Image img;
-        img.width = width;
-        img.height = height;
-        // (add_channel may reallocate the channel list: index the data after adding.)
-        for (const char* name : {"R", "G", "B"}) img.add_channel(name);
-        for (int y = 0; y < height; ++y)
-            for (int x = 0; x < width; ++x) {
-                RGB v = film.value(x, y);
-                size_t i = size_t(y) * width + x;
-                for (int c = 0; c < 3; ++c) img.data[c][i] = v[c];
-            }
-        if (opt.variance_layer) {
-            const int first = int(img.channels.size());
-            for (const char* name : {"variance.R", "variance.G", "variance.B"}) img.add_channel(name);
-            for (int y = 0; y < height; ++y)
-                for (int x = 0; x < width; ++x) {
-                    RGB v = film.variance(x, y);
-                    size_t i = size_t(y) * width + x;
-                    for (int c = 0; c < 3; ++c) img.data[first + c][i] = v[c];
-                }
-        }
-        if (opt.samples_layer) {
-            auto& S = img.add_channel("samples");
-            for (size_t i = 0; i < S.size(); ++i) S[i] = float(film.count[i]);
-        }
+        add_film_layers(img, film, opt.variance_layer, opt.samples_layer);
         img.metadata["iris:spp"] = std::to_string(spp);
+        if (part) {
+            add_film_parts(img, film);
+            img.metadata["iris:sample_range"] = std::to_string(opt.sample_begin) + ":" + std::to_string(opt.sample_end);
+            img.metadata["iris:spp_total"] = std::to_string(target_spp);
+            img.metadata["iris:light_paths_per_sample"] = std::to_string(light_paths_per_sample);
+            img.metadata["iris:variance_layer"] = opt.variance_layer ? "1" : "0";
+            img.metadata["iris:samples_layer"] = opt.samples_layer ? "1" : "0";
+            // Everything that changes a sample (the range aside): parts merge only where these agree.
+            char buf[512];
+            std::snprintf(buf, sizeof buf,
+                          "resolution %dx%d; seed %llu; mode %s; max_depth %d; rr_depth %d; rr_threshold %.9g; "
+                          "guide_vertices %d; guided %d; light paths per sample %llu; filter %d %.9g %.9g; spp %d",
+                          width, height, (unsigned long long)opt.seed, guide_mode_name(ps.mode), ps.max_depth,
+                          ps.rr_depth, double(ps.rr_threshold), ps.guide_vertices, ps.guide ? 1 : 0,
+                          (unsigned long long)light_paths_per_sample, int(scene.film.filter),
+                          double(scene.film.filter_radius), double(scene.film.filter_stddev), target_spp);
+            img.metadata["iris:settings"] = std::string(buf) + (opt.settings_extra.empty() ? "" : "; " + opt.settings_extra);
+        }
         img.metadata["iris:seconds"] = std::to_string(seconds);
         img.metadata["iris:seed"] = std::to_string(opt.seed);
         img.metadata["iris:max_depth"] = std::to_string(ps.max_depth);
@@ -787,7 +805,12 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     int spp = 0;
     double last_snapshot = 0;
     int pass = 1;
-    while (spp < target_spp) {
+    if (part) {
+        // One pass of this part's samples, seeded by their indices as in a single run.
+        run_pass(opt.sample_begin, opt.sample_end);
+        spp = opt.sample_end - opt.sample_begin;
+    }
+    while (!part && spp < target_spp) {
         int n = (timed || snapshots) ? std::min(pass, target_spp - spp) : target_spp - spp;
         // Learning: a pass ends where the maps are refit, so that which maps a sample sees depends on its
         // index only, not on how the time budget cut the passes.

@@ -51,6 +51,15 @@ struct RenderOptions {
     Guide* learn = nullptr;
     double snapshot_interval = 0;
     std::function<void(const Image&)> snapshot;
+    // A part of a render split across processes (render --sample-range A:B, merged by tools/merge):
+    // only samples [sample_begin, sample_end) of each pixel (of spp in all), seeded as in one run, and
+    // the film's sums in "part.*" channels (film_parts.h). sample_end = 0: the whole render. A part must
+    // be a fixed-spp render whose sampling does not depend on a measurement (no time budget, no pilot).
+    int sample_begin = 0, sample_end = 0;
+    // Settings that change the samples and that render_image does not see (the atlas's fingerprint,
+    // --bsdf-fraction, --min-gain): recorded in a part's "iris:settings" so that merge refuses parts
+    // of different renders.
+    std::string settings_extra;
 };
 
 // Per-path settings resolved from the options and the scene.

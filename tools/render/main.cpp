@@ -73,6 +73,11 @@ int main(int argc, char** argv) {
     app.add_option("--write-atlas", write_atlas,
                    "With --learn: write the refit cache atlas (photons + path samples; the maps the last pass sampled) to "
                    "this HDF5 file, for reuse as --atlas");
+    std::string sample_range;
+    app.add_option("--sample-range", sample_range,
+                   "A:B -- render only samples A..B-1 of each pixel (of the --spp in all), seeded as in one run, and "
+                   "store the film's sums so that `merge-images` adds the parts into the image of one run; needs a "
+                   "fixed --spp and --mode (not --time, not --mode auto or --caustics auto)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     if (int rc = iris::parse_command_line(app, argc, argv, "render"); rc >= 0) return rc;
     try {
@@ -80,6 +85,14 @@ int main(int argc, char** argv) {
         if (opt.time < 0) throw std::runtime_error("--time must be positive");
         if (!(opt.snapshot_interval >= 0 && std::isfinite(opt.snapshot_interval)))
             throw std::runtime_error("--snapshot must be a positive number of seconds");
+        if (!sample_range.empty()) {
+            long long a = -1, b = -1;
+            char tail = 0;
+            if (std::sscanf(sample_range.c_str(), "%lld:%lld%c", &a, &b, &tail) != 2 || !(a >= 0 && a < b && b <= (1LL << 30)))
+                throw std::runtime_error("--sample-range must be A:B with 0 <= A < B, got '" + sample_range + "'");
+            opt.sample_begin = int(a);
+            opt.sample_end = int(b);
+        }
         if (!resolution.empty()) iris::parse_resolution(resolution, &opt.width, &opt.height);
         iris::check_output_path(output);
         opt.auto_guide = mode == "auto";
@@ -134,6 +147,13 @@ int main(int argc, char** argv) {
                              : g.caches ? ": none is predicted to beat BSDF sampling, rendering unguided"
                                         : ": the atlas has none (place-caches skipped a scene without light "
                                           "through specular chains), rendering unguided");
+            if (opt.sample_end > 0) {
+                char buf[160];
+                std::snprintf(buf, sizeof buf, "atlas %s; bsdf_fraction %.9g; min_gain %.9g",
+                              iris::file_fingerprint(atlas_path).c_str(), double(guide_options.bsdf_fraction),
+                              double(guide_options.min_gain));
+                opt.settings_extra = buf;
+            }
             // A guide without caches would only cost lookups.
             if (!guide->empty()) opt.guide = guide.get();
             if (learn && opt.guide) opt.learn = guide.get();

@@ -33,11 +33,27 @@ int main(int argc, char** argv) {
                    "scene has a specular (Dirac) lobe, the share is 0 whatever the photons, so none is traced "
                    "and the photon map is empty");
     app.add_option("-D,--define", defines, "Scene parameter name=value");
+    std::string path_range;
+    app.add_option("--path-range", path_range,
+                   "A:B -- trace only paths A..B-1 of the --paths in all (flux normalised by the total), seeded as in "
+                   "one run; `merge-photons` joins the parts into the map of one run");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     if (int rc = iris::parse_command_line(app, argc, argv, "trace-photons"); rc >= 0) return rc;
     try {
         if (paths <= 0) throw std::runtime_error("--paths must be positive, got " + std::to_string(paths));
         opt.paths = uint64_t(paths);
+        if (!path_range.empty()) {
+            unsigned long long a = 0, b = 0;
+            char tail = 0;
+            if (path_range.find('-') != std::string::npos ||
+                std::sscanf(path_range.c_str(), "%llu:%llu%c", &a, &b, &tail) != 2 || !(a < b))
+                throw std::runtime_error("--path-range must be A:B with 0 <= A < B, got '" + path_range + "'");
+            if (b > opt.paths)
+                throw std::runtime_error("--path-range " + path_range + " is not within the " + std::to_string(opt.paths) +
+                                         " paths (--paths)");
+            opt.path_begin = a;
+            opt.path_end = b;
+        }
         if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
         if (!(min_caustic_share >= 0 && min_caustic_share <= 1))
             throw std::runtime_error("--min-caustic-share must be in [0, 1]");
@@ -49,6 +65,7 @@ int main(int argc, char** argv) {
         // A scene without caustics skips guiding (place-caches); tracing its photons would only cost time.
         const bool skip = min_caustic_share > 0 && !iris::has_specular_surfaces(scene);
         iris::PhotonMap map = skip ? iris::PhotonMap{} : iris::trace_photons(scene, opt, &stats);
+        const uint64_t total_paths = opt.paths;
         if (skip) opt.paths = 0;
         iris::Provenance prov;
         prov.tool = "trace-photons";
@@ -62,6 +79,12 @@ int main(int argc, char** argv) {
                            // So that place-caches can decide to skip a scene from the header alone.
                            {"caustic_share", iris::caustic_power_share(map)},
                            {"min_caustic_share", min_caustic_share}};
+        if (opt.path_end > 0) {
+            // A part: its range and the total it is a part of (merge-photons checks they tile 0:total).
+            prov.parameters["path_begin"] = double(opt.path_begin);
+            prov.parameters["path_end"] = double(opt.path_end);
+            prov.parameters["path_total"] = double(total_paths);
+        }
         iris::write_photon_map(output, map, scene.fingerprint, prov);
         if (skip)  // a decision, reported even with -q (as place-caches reports its own)
             std::fprintf(stderr, "trace-photons: no surface of %s has a specular (Dirac) lobe, so no light arrives "

@@ -77,9 +77,13 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
     if (o.rr_depth < 1) throw std::runtime_error("--rr-depth must be at least 1");
     if (!(o.cutoff >= 0 && o.cutoff < 1)) throw std::runtime_error("--cutoff must be in [0, 1)");
     if (scene.light_selection.empty()) throw std::runtime_error(scene.source + ": the scene has no light with power");
+    const uint64_t first = o.path_end > 0 ? o.path_begin : 0, last = o.path_end > 0 ? o.path_end : o.paths;
+    if (!(first < last && last <= o.paths))
+        throw std::runtime_error("--path-range " + std::to_string(first) + ":" + std::to_string(last) +
+                                 " is not within the " + std::to_string(o.paths) + " paths (0 <= A < B <= --paths)");
     int threads = o.threads > 0 ? o.threads : int(std::max(1u, std::thread::hardware_concurrency()));
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));
-    const uint64_t chunks = (o.paths + kChunk - 1) / kChunk;
+    const uint64_t chunks = (last - first + kChunk - 1) / kChunk;
     std::vector<std::vector<Photon>> parts(chunks);
     std::atomic<uint64_t> nonfinite{0};
     Progress progress("trace-photons", chunks, o.quiet);
@@ -88,7 +92,7 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
         uint64_t bad = 0;
         std::vector<Photon>& out = parts[c];
         out.reserve(kChunk * 4);
-        for (uint64_t i = c * kChunk; i < std::min(o.paths, (c + 1) * kChunk); ++i) trace_one(scene, o, i, out, &bad);
+        for (uint64_t i = first + c * kChunk; i < std::min(last, first + (c + 1) * kChunk); ++i) trace_one(scene, o, i, out, &bad);
         nonfinite += bad;
         progress.advance(1);
     });
@@ -117,7 +121,7 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
     double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     progress.finish(std::to_string(total) + " photons");
     if (stats) {
-        stats->paths = o.paths;
+        stats->paths = last - first;
         stats->photons = total;
         stats->nonfinite = nonfinite;
         stats->seconds = secs;

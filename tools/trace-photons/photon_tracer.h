@@ -20,6 +20,11 @@ struct PhotonOptions {
     int threads = 0;          // 0 = all cores
     uint64_t seed = 0;
     bool quiet = false;
+    // A part of a photon map split across processes (trace-photons --path-range A:B, merged by
+    // merge-photons): only paths [path_begin, path_end) of the `paths` in all, each seeded by its index
+    // and carrying flux normalised by the TOTAL path count, so that the parts' photons in range order are
+    // the single run's. path_end = 0: all paths.
+    uint64_t path_begin = 0, path_end = 0;
 };
 
 struct PhotonStats {
