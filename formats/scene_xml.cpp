@@ -694,9 +694,15 @@ private:
     }
 
     void no_children(const Plugin& p) {
-        if (!p.children.empty())
-            fail(*p.src, p.src->line_of(p.children[0]),
-                 "<" + std::string(p.children[0].name()) + "> is not allowed inside " + p.what());
+        if (p.children.empty()) return;
+        pugi::xml_node c = p.children[0];
+        // A nested <texture> is a textured parameter (Mitsuba's bitmap, checkerboard, ...): name the
+        // plugin, so the user knows what iris lacks rather than reading a syntax complaint.
+        if (std::string(c.name()) == "texture")
+            fail(*p.src, p.src->line_of(c),
+                 "unsupported plugin " + quote(c.attribute("type").value()) + " (texture for parameter " +
+                     quote(c.attribute("name").value()) + " of " + p.what() + "; iris reads constant parameters only)");
+        fail(*p.src, p.src->line_of(c), "<" + std::string(c.name()) + "> is not allowed inside " + p.what());
     }
 
     // ---- the scene ------------------------------------------------------------------------------
@@ -907,6 +913,12 @@ private:
             };
         };
         IgnoreRule ignore;
+        // Name an unsupported BSDF plugin first: wrappers such as bumpmap or mask nest a <bsdf>, which
+        // would otherwise be reported as a misplaced element.
+        static const char* const kSupported[] = {"twosided", "diffuse", "roughdiffuse", "dielectric", "conductor",
+                                                 "roughconductor", "plastic", "roughplastic", "ward"};
+        if (std::find(std::begin(kSupported), std::end(kSupported), t) == std::end(kSupported))
+            fail(src, p.line, "unsupported plugin " + quote(t) + " (bsdf)");
         if (t == "twosided") {
             // Wraps one BSDF and makes it act alike on both sides.
             if (p.children.size() != 1)

@@ -178,6 +178,9 @@ protected:
         write_text(in("caustic.xml"), caustic_text);  // (so that every scene argument reads {in}/NAME)
         write_text(in("truncated.xml"), caustic_text.substr(0, caustic_text.size() * 6 / 10));
         write_text(in("unknown_plugin.xml"), scene_with(sphere + "\n    <bsdf type=\"velvet\"/>"));
+        write_text(in("bumpmap.xml"), scene_with(sphere + "\n    <bsdf type=\"bumpmap\"><bsdf type=\"diffuse\"/></bsdf>"));
+        write_text(in("texture.xml"), scene_with(sphere + "\n    <bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
+                                                 "<string name=\"filename\" value=\"wood.png\"/></texture></bsdf>"));
         write_text(in("misspelt.xml"), scene_with("type=\"sphere\">\n    <float name=\"radus\" value=\"0.5\"/>"));
         write_text(in("bad_number.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"half\"/>"));
         write_text(in("nan_number.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"nan\"/>"));
@@ -251,6 +254,8 @@ const BadInputCase kCases[] = {
     {"SceneMalformed", "render", "malformed XML (unclosed element)", "{in}/malformed.xml -o {out}", "malformed.xml"},
     {"SceneTruncated", "render", "scene file cut off midway", "{in}/truncated.xml -o {out}", "truncated.xml"},
     {"SceneUnknownPlugin", "render", "unknown plugin (bsdf type velvet)", "{in}/unknown_plugin.xml -o {out}", "velvet"},
+    {"SceneBumpmap", "render", "unsupported BSDF wrapper (bumpmap)", "{in}/bumpmap.xml -o {out}", "unsupported plugin \"bumpmap\""},
+    {"SceneTexture", "render", "textured BSDF parameter (bitmap)", "{in}/texture.xml -o {out}", "unsupported plugin \"bitmap\""},
     {"SceneMisspeltParameter", "render", "misspelt parameter (radus)", "{in}/misspelt.xml -o {out}", "radus"},
     {"SceneBadNumber", "render", "a number that is not one", "{in}/bad_number.xml -o {out}", "bad_number.xml"},
     {"SceneNanNumber", "render", "NaN as a parameter value", "{in}/nan_number.xml -o {out}", "nan_number.xml"},

@@ -704,7 +704,20 @@ TEST(SceneLoaderErrors, MalformedXml) {
 TEST(SceneLoaderErrors, UnknownPlugin) {
     TempDir d;
     std::string text = scene_text("  <shape type=\"sphere\">\n    <bsdf type=\"velvet\"/>\n  </shape>\n");
-    expect_error(d.write("s.xml", text), line_of(text, "velvet"), "unsupported bsdf type \"velvet\"");
+    expect_error(d.write("s.xml", text), line_of(text, "velvet"), "unsupported plugin \"velvet\" (bsdf)");
+    // Wrappers that nest a BSDF are named as the unsupported plugin, not reported as a misplaced <bsdf>.
+    for (const char* wrapper : {"bumpmap", "mask"}) {
+        std::string w = scene_text(std::string("  <shape type=\"sphere\">\n    <bsdf type=\"") + wrapper +
+                                   "\">\n      <bsdf type=\"diffuse\"/>\n    </bsdf>\n  </shape>\n");
+        expect_error(d.write("w.xml", w), line_of(w, wrapper), std::string("unsupported plugin \"") + wrapper + "\" (bsdf)");
+    }
+    // A textured parameter names the texture plugin and the parameter.
+    std::string tex = scene_text(
+        "  <shape type=\"sphere\">\n    <bsdf type=\"diffuse\">\n"
+        "      <texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"a.png\"/></texture>\n"
+        "    </bsdf>\n  </shape>\n");
+    expect_error(d.write("t.xml", tex), line_of(tex, "bitmap"),
+                 "unsupported plugin \"bitmap\" (texture for parameter \"reflectance\" of bsdf \"diffuse\"");
     std::string text2 = scene_text("  <shape type=\"torus\"/>\n");
     expect_error(d.write("s2.xml", text2), line_of(text2, "torus"), "unsupported shape type \"torus\"");
     std::string text3 = scene_text("  <lamp type=\"area\"/>\n");
