@@ -32,6 +32,7 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "formats/exr.h"
 #include "formats/obj.h"
 #include "libcommon/spectrum.h"
 
@@ -1380,18 +1381,98 @@ private:
         } else if (e.type == "constant") {
             l.type = LightType::Constant;
             l.radiance = get_spectrum(e, "radiance", RGB(1.0f));
-            for (const Light& other : scene_.lights)
-                if (other.type == LightType::Constant) fail(src, e.line, "a second constant environment emitter");
+        } else if (e.type == "spot") {
+            l.type = LightType::Spot;
+            const Transform m = get_transform(e, "toWorld").value_or(Transform());
+            l.position = m.point(Vec3(0.0f));
+            l.direction = light_direction(e, m.vector(Vec3(0, 0, 1)), "toWorld");
+            l.radiance = get_spectrum(e, "intensity", RGB(1.0f));  // W/sr on the axis
+            const float cutoff = get_float(e, "cutoffAngle", 20.0f);  // degrees, Mitsuba's defaults
+            const float beam = get_float(e, "beamWidth", cutoff * 0.75f);
+            if (!(cutoff > 0 && cutoff <= 180))
+                fail(src, find(e, "cutoffAngle")->line, "cutoffAngle must be in (0, 180] degrees");
+            if (!(beam >= 0 && beam <= cutoff)) {
+                Prop* bp = find(e, "beamWidth");
+                fail(src, bp ? bp->line : e.line, "beamWidth must be in [0, cutoffAngle] degrees");
+            }
+            l.cutoff = cutoff * (kPi / 180.0f);
+            l.beam_width = beam * (kPi / 180.0f);
+            l.cos_cutoff = std::cos(l.cutoff);
+        } else if (e.type == "directional") {
+            l.type = LightType::Directional;
+            std::optional<Vec3> dir = get_point(e, "direction");
+            std::optional<Transform> m = get_transform(e, "toWorld");
+            if (dir && m) fail(src, e.line, "give either direction or toWorld for a directional light, not both");
+            l.direction = light_direction(e, dir ? *dir : m ? m->vector(Vec3(0, 0, 1)) : Vec3(0, 0, 1),
+                                          dir ? "direction" : "toWorld");
+            l.radiance = get_spectrum(e, "irradiance", RGB(1.0f));  // W/m^2
+        } else if (e.type == "envmap") {
+            l.type = LightType::Envmap;
+            envmap(src, e, &l);
         } else if (e.type == "area") {
             fail(src, e.line, "an area emitter must be nested inside the shape that emits");
         } else {
-            fail(src, e.line, "unsupported emitter type " + quote(e.type) + " (point, constant, or area on shapes)");
+            fail(src, e.line, "unsupported emitter type " + quote(e.type) +
+                                  " (point, spot, directional, constant, envmap, or area on shapes)");
         }
+        const bool env = l.type == LightType::Constant || l.type == LightType::Envmap;
+        if (env)
+            for (const Light& other : scene_.lights)
+                if (other.type == LightType::Constant || other.type == LightType::Envmap)
+                    fail(src, e.line, "a second environment emitter (constant or envmap): iris takes one per scene");
         l.sampling_weight = sampling_weight(e);
         check_radiance(e, l.radiance);
         finish(e);
         scene_.lights.push_back(l);
-        if (l.type == LightType::Constant) scene_.environment_light = int(scene_.lights.size() - 1);
+        if (env) scene_.environment_light = int(scene_.lights.size() - 1);
+    }
+
+    // A light's unit direction from a parameter (or toWorld's image of +z); zero or non-finite fails.
+    Vec3 light_direction(Plugin& e, Vec3 d, const char* from) {
+        const float len = length(d);
+        if (!(len > 0) || !std::isfinite(len)) {
+            Prop* p = find(e, from);
+            fail(*e.src, p ? p->line : e.line, e.what() + ": " + from + " gives no direction (zero or not finite)");
+        }
+        return d / len;
+    }
+
+    // emitter "envmap": a latitude-longitude image (EXR; Radiance HDR once formats/image_file reads it),
+    // times `scale`, oriented by toWorld (Mitsuba 0.5: +y up in the map's frame).
+    void envmap(const Source& src, Plugin& e, Light* l) {
+        std::optional<std::string> file = get_string(e, "filename");
+        if (!file) fail(src, e.line, "emitter \"envmap\" needs a filename");
+        const int fline = find(e, "filename")->line;
+        const float scale = get_float(e, "scale", 1.0f);
+        if (!(scale >= 0) || !std::isfinite(scale)) fail(src, find(e, "scale")->line, "envmap scale must be finite and >= 0");
+        const Transform to_world = get_transform(e, "toWorld").value_or(Transform());
+        if (!(std::abs(to_world.determinant3x3()) > 0)) fail(src, find(e, "toWorld")->line, "envmap toWorld is singular");
+        if (find(e, "gamma")) get_float(e, "gamma");  // for LDR maps in Mitsuba; EXR/HDR are linear
+        get_bool(e, "cache", false);                    // Mitsuba's MIP-map cache switch: no meaning here
+        const fs::path path = resolve(src, *file);
+        std::string bytes;
+        if (!read_file(path, &bytes))
+            fail(src, fline, "cannot read envmap file " + quote(*file) + " (resolved to " + path.string() + ")");
+        fingerprint_.add(bytes);
+        Image img;
+        try {
+            img = read_exr(path.string());
+        } catch (const std::exception& ex) {
+            fail(src, fline, "envmap " + quote(*file) + ": " + ex.what());
+        }
+        const int ri = img.channel_index("R"), gi = img.channel_index("G"), bi = img.channel_index("B");
+        const int yi = img.channel_index("Y");
+        if ((ri < 0 || gi < 0 || bi < 0) && yi < 0)
+            fail(src, fline, "envmap " + quote(*file) + " has neither R, G, B nor Y channels");
+        std::vector<RGB> texels(size_t(std::max(0, img.width)) * size_t(std::max(0, img.height)));
+        for (size_t i = 0; i < texels.size(); ++i)
+            texels[i] = ri >= 0 && gi >= 0 && bi >= 0 ? RGB(img.data[ri][i], img.data[gi][i], img.data[bi][i]) * scale
+                                                     : RGB(img.data[yi][i]) * scale;
+        try {
+            l->envmap = make_envmap(img.width, img.height, std::move(texels), to_world);
+        } catch (const std::invalid_argument& ex) {
+            fail(src, fline, "envmap " + quote(*file) + ": " + ex.what());
+        }
     }
 
     void medium(const Source& src, pugi::xml_node n) {

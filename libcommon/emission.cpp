@@ -8,6 +8,29 @@
 
 namespace iris {
 
+namespace {
+
+// An origin for a photon travelling along d from outside the scene: uniform on a disk of the bounding
+// sphere's radius R, perpendicular to d, one radius before the centre. Every line along d that meets
+// the scene crosses this disk, whose area is pi R^2 (the factor in light_power of the environment and
+// directional lights).
+Vec3 disk_origin(const Scene& scene, Vec3 d, Vec2 u) {
+    Vec3 c = (scene.bounds_min + scene.bounds_max) * 0.5f;
+    float r = 0.5f * length(scene.bounds_max - scene.bounds_min);
+    if (!(r > 0)) r = 1;
+    Frame f(d);
+    Vec2 disk = sample_concentric_disk(u);
+    return c + (f.s * disk.x + f.t * disk.y) * r - d * r;
+}
+
+float bounding_disk_area(const Scene& scene) {
+    float r = 0.5f * length(scene.bounds_max - scene.bounds_min);
+    if (!(r > 0)) r = 1;
+    return kPi * r * r;
+}
+
+}  // namespace
+
 bool sample_emission(const Scene& scene, float u_sel, Vec2 u_pos, Vec2 u_dir, EmissionSample* s) {
     if (scene.light_selection.empty()) return false;
     uint32_t li = scene.light_selection.sample(u_sel);
@@ -15,8 +38,9 @@ bool sample_emission(const Scene& scene, float u_sel, Vec2 u_pos, Vec2 u_dir, Em
     if (!(p_sel > 0)) return false;
     const Light& l = scene.lights[li];
     s->light = li;
-    // Every emitter here is Lambertian, so directions are cosine-distributed about the normal and the
-    // flux per photon is the light's total power over the selection probability.
+    // Area emitters are Lambertian, so directions are cosine-distributed about the normal and the flux
+    // per photon is the light's total power over the selection probability; the spot light and the
+    // envmap weight their samples by emitted / sampled density instead.
     s->flux = light_power(scene, l) / p_sel;
     switch (l.type) {
         case LightType::AreaMesh: {
@@ -47,18 +71,42 @@ bool sample_emission(const Scene& scene, float u_sel, Vec2 u_pos, Vec2 u_dir, Em
             s->n = Vec3(0);
             s->d = sample_uniform_sphere(u_dir);
             return true;
-        case LightType::Constant: {
-            // A direction of travel d, and an origin on a disk of the bounding sphere's radius R that
-            // faces d from outside the scene: uniform over the disk, the flux is L * pi R^2 * 4 pi.
-            Vec3 c = (scene.bounds_min + scene.bounds_max) * 0.5f;
-            float r = 0.5f * length(scene.bounds_max - scene.bounds_min);
-            if (!(r > 0)) r = 1;
-            s->d = -sample_uniform_sphere(u_dir);
-            Frame f(s->d);
-            Vec2 disk = sample_concentric_disk(u_pos);
-            s->p = c + (f.s * disk.x + f.t * disk.y) * r - s->d * r;
+        case LightType::Spot: {
+            // Uniform in the cutoff cone; flux I falloff / (p_cone p_select), p_cone = 1/(2 pi (1 - cos c)).
+            const float omc = 1.0f - l.cos_cutoff;
+            if (!(omc > 0)) return false;
+            Vec3 local = sample_uniform_cone(u_dir, OneMinusCos{omc});
+            s->d = Frame(l.direction).to_world(local);
+            s->p = l.position;
+            s->n = Vec3(0);
+            const float fall = spot_falloff(l.cutoff, l.beam_width, l.cos_cutoff, local.z);
+            s->flux = l.radiance * (fall * 2.0f * kPi * omc / p_sel);
+            return fall > 0;
+        }
+        case LightType::Directional:
+            // Every photon travels along the light's direction; flux E pi R^2 / p_select (light_power).
+            s->d = l.direction;
+            s->p = disk_origin(scene, s->d, u_pos);
             s->n = Vec3(0);
             return true;
+        case LightType::Constant:
+            // A direction of travel d, and an origin on a disk of the bounding sphere's radius R that
+            // faces d from outside the scene: uniform over the disk, the flux is L * pi R^2 * 4 pi.
+            s->d = -sample_uniform_sphere(u_dir);
+            s->p = disk_origin(scene, s->d, u_pos);
+            s->n = Vec3(0);
+            return true;
+        case LightType::Envmap: {
+            // The direction the light arrives from, w, by the map's distribution; the photon travels
+            // along -w with flux L(w) pi R^2 / (p(w) p_select).
+            Vec3 w;
+            float pdf;
+            if (!envmap_sample(*l.envmap, u_dir, &w, &pdf)) return false;
+            s->d = -w;
+            s->p = disk_origin(scene, s->d, u_pos);
+            s->n = Vec3(0);
+            s->flux = envmap_eval(*l.envmap, w) * (bounding_disk_area(scene) / (pdf * p_sel));
+            return is_finite(s->flux) && !is_black(s->flux);
         }
     }
     return false;

@@ -246,14 +246,118 @@ bool sample_sphere(const Scene& scene, const Light& l, Vec3 ref, Vec2 u, LightSa
     return true;
 }
 
+
+// Map-local direction -> (u, v) in [0,1)^2 and the texel it falls in (Mitsuba 0.5's latlong).
+struct EnvCoord {
+    int col = 0, row = 0;
+    float sin_theta = 0;
+};
+EnvCoord env_coord(const EnvMap& m, Vec3 d_world) {
+    Vec3 d = m.to_local.vector(d_world);
+    float len = length(d);
+    EnvCoord c;
+    if (!(len > 0) || !std::isfinite(len)) return c;
+    d = d / len;
+    float u = std::atan2(d.x, -d.z) * kInv2Pi;
+    if (u < 0) u += 1.0f;
+    float v = safe_acos(d.y) * kInvPi;
+    c.col = std::min(m.width - 1, std::max(0, int(u * float(m.width))));
+    c.row = std::min(m.height - 1, std::max(0, int(v * float(m.height))));
+    c.sin_theta = std::sqrt(std::max(0.0f, 1.0f - d.y * d.y));
+    return c;
+}
+
 }  // namespace
+
+std::shared_ptr<const EnvMap> make_envmap(int width, int height, std::vector<RGB> texels, const Transform& to_world) {
+    if (width <= 0 || height <= 0) throw std::invalid_argument("environment map of size " + std::to_string(width) +
+                                                                " x " + std::to_string(height));
+    if (texels.size() != size_t(width) * size_t(height))
+        throw std::invalid_argument("environment map: texel count does not match its size");
+    auto m = std::make_shared<EnvMap>();
+    m->width = width;
+    m->height = height;
+    m->to_world = to_world;
+    m->to_local = to_world.inverse();
+    std::vector<float> row_w(static_cast<size_t>(height), 0.0f), col_w(static_cast<size_t>(width));
+    m->cols.resize(size_t(height));
+    double acc[3] = {0, 0, 0};
+    const double dphi = 2.0 * kPiD / width;
+    for (int y = 0; y < height; ++y) {
+        // Solid angle of a texel of this row: dphi (cos theta0 - cos theta1), in sr.
+        const double t0 = kPiD * y / height, t1 = kPiD * (y + 1) / height;
+        const double omega = dphi * (std::cos(t0) - std::cos(t1));
+        const float sin_c = float(std::sin(kPiD * (y + 0.5) / height));
+        double sum = 0;
+        for (int x = 0; x < width; ++x) {
+            const RGB& t = texels[size_t(y) * width + x];
+            if (!is_finite(t) || t.r < 0 || t.g < 0 || t.b < 0)
+                throw std::invalid_argument("environment map: texel (" + std::to_string(x) + ", " + std::to_string(y) +
+                                            ") is negative or not finite");
+            col_w[size_t(x)] = luminance(t);
+            sum += col_w[size_t(x)];
+            acc[0] += t.r * omega;
+            acc[1] += t.g * omega;
+            acc[2] += t.b * omega;
+        }
+        m->cols[size_t(y)] = Distribution1D(col_w);
+        row_w[size_t(y)] = float(sum * sin_c);
+    }
+    m->rows = Distribution1D(row_w);
+    m->integral = RGB(float(acc[0]), float(acc[1]), float(acc[2]));
+    if (!is_finite(m->integral)) throw std::invalid_argument("environment map: total radiance is not finite");
+    m->texels = std::move(texels);
+    return m;
+}
+
+RGB envmap_eval(const EnvMap& m, Vec3 d) {
+    EnvCoord c = env_coord(m, d);
+    return m.texels[size_t(c.row) * m.width + c.col];
+}
+
+float envmap_pdf(const EnvMap& m, Vec3 d) {
+    if (m.rows.empty()) return 0.0f;
+    EnvCoord c = env_coord(m, d);
+    if (!(c.sin_theta > 0)) return 0.0f;
+    // Uniform within the texel in (u, v); (u, v) -> direction has Jacobian 2 pi^2 sin(theta) sr.
+    double p_uv = double(m.rows.pmf(uint32_t(c.row))) * m.cols[size_t(c.row)].pmf(uint32_t(c.col)) * m.width * m.height;
+    double pdf = p_uv / (2.0 * kPiD * kPiD * c.sin_theta);
+    return pdf < kMaxPdf ? float(pdf) : 0.0f;
+}
+
+bool envmap_sample(const EnvMap& m, Vec2 u, Vec3* d, float* pdf) {
+    if (m.rows.empty()) return false;
+    float ur, uc;
+    const uint32_t row = m.rows.sample(u.x, &ur);
+    const uint32_t col = m.cols[row].sample(u.y, &uc);
+    const double phi = 2.0 * kPiD * (col + double(uc)) / m.width;
+    const double theta = kPiD * (row + double(ur)) / m.height;
+    const double st = std::sin(theta);
+    Vec3 local(float(std::sin(phi) * st), float(std::cos(theta)), float(-std::cos(phi) * st));
+    Vec3 w = m.to_world.vector(local);
+    float len = length(w);
+    if (!(len > 0)) return false;
+    *d = w / len;
+    *pdf = envmap_pdf(m, *d);
+    return *pdf > 0;
+}
+
+float spot_falloff(float cutoff, float beam_width, float cos_cutoff, float cos_theta) {
+    if (!(cos_theta > cos_cutoff)) return 0.0f;
+    const float theta = safe_acos(cos_theta);
+    if (theta <= beam_width || !(cutoff > beam_width)) return 1.0f;
+    return std::min(1.0f, std::max(0.0f, (cutoff - theta) / (cutoff - beam_width)));
+}
 
 RGB light_emitted(const Light& l, Vec3 n, Vec3 w) {
     switch (l.type) {
         case LightType::AreaMesh:
         case LightType::AreaSphere: return dot(n, w) > 0 ? l.radiance : RGB(0);
         case LightType::Constant: return l.radiance;
-        case LightType::Point: return RGB(0);  // cannot be hit by a ray
+        case LightType::Envmap: return envmap_eval(*l.envmap, -w);
+        case LightType::Point:
+        case LightType::Spot:
+        case LightType::Directional: return RGB(0);  // deltas: no ray hits them
     }
     return RGB(0);
 }
@@ -276,6 +380,25 @@ RGB light_power(const Scene& scene, const Light& l) {
             // each direction, times 4 pi sr of incoming directions (as pbrt and Mitsuba estimate it).
             double radius = scene_radius(scene);
             return l.radiance * float(kPiD * radius * radius * 4.0 * kPiD);
+        }
+        case LightType::Envmap: {
+            // As for the constant environment, with the map's integral over the sphere for 4 pi L.
+            double radius = scene_radius(scene);
+            return l.envmap ? l.envmap->integral * float(kPiD * radius * radius) : RGB(0);
+        }
+        case LightType::Directional: {
+            // The flux through a disk of the bounding sphere's radius facing the light.
+            double radius = scene_radius(scene);
+            return l.radiance * float(kPiD * radius * radius);
+        }
+        case LightType::Spot: {
+            // 2 pi times the integral of falloff(theta) sin(theta) dtheta: 1 - cos(beam) over the full
+            // beam, and over the linear ramp (from integrating (c - t) sin t by parts)
+            //   ((c - b) cos b + sin b - sin c) / (c - b).
+            const double c = l.cutoff, b = std::min(double(l.beam_width), c);
+            double solid = 1.0 - std::cos(b);
+            if (c > b) solid += ((c - b) * std::cos(b) + std::sin(b) - std::sin(c)) / (c - b);
+            return l.radiance * float(2.0 * kPiD * solid);
         }
     }
     return RGB(0);
@@ -304,6 +427,14 @@ void lights_prepare(Scene& scene) {
                 break;
             }
             case LightType::Point: break;
+            case LightType::Spot:
+            case LightType::Directional:
+                if (!(std::abs(length(l.direction) - 1.0f) < 1e-3f))
+                    throw std::runtime_error(who + ": direction is not a unit vector");
+                break;
+            case LightType::Envmap:
+                if (!l.envmap) throw std::runtime_error(who + ": environment map missing");
+                [[fallthrough]];
             case LightType::Constant:
                 if (scene.environment_light >= 0)
                     throw std::runtime_error(who + ": only one environment emitter is allowed per scene");
@@ -348,6 +479,51 @@ bool sample_light(const Scene& scene, Vec3 ref, float u_sel, Vec2 u, LightSample
             ok = true;
             break;
         }
+        case LightType::Spot: {
+            Vec3d d = sub(to_d(l.position), to_d(ref));
+            double d2 = dot_d(d, d);
+            if (!(d2 > 0) || !std::isfinite(d2)) break;
+            double dist = std::sqrt(d2);
+            Vec3 wi = to_f(scale(d, 1.0 / dist));
+            float fall = spot_falloff(l.cutoff, l.beam_width, l.cos_cutoff, dot(-wi, l.direction));
+            if (!(fall > 0)) break;
+            RGB radiance = l.radiance * float(fall / d2);
+            if (!is_finite(radiance)) break;
+            s->p = l.position;
+            s->n = Vec3(0);
+            s->wi = wi;
+            s->dist = float(dist);
+            s->radiance = radiance;
+            s->pdf = 1.0f;
+            s->delta = true;
+            ok = true;
+            break;
+        }
+        case LightType::Directional: {
+            // Irradiance E arrives along -direction: a delta in direction whose "radiance" is E.
+            s->wi = -l.direction;
+            s->p = Vec3(0);
+            s->n = Vec3(0);
+            s->dist = kInf;
+            s->radiance = l.radiance;
+            s->pdf = 1.0f;
+            s->delta = true;
+            ok = true;
+            break;
+        }
+        case LightType::Envmap: {
+            float pdf;
+            Vec3 wi;
+            if (!envmap_sample(*l.envmap, u, &wi, &pdf)) break;
+            s->wi = wi;
+            s->p = Vec3(0);
+            s->n = Vec3(0);
+            s->dist = kInf;
+            s->radiance = envmap_eval(*l.envmap, wi);
+            s->pdf = pdf;
+            ok = !is_black(s->radiance);
+            break;
+        }
         case LightType::Constant: {
             s->wi = sample_uniform_sphere(u);
             s->p = Vec3(0);
@@ -384,8 +560,11 @@ float light_pdf(const Scene& scene, uint32_t light, Vec3 ref, Vec3 p, Vec3 n, Ve
             pdf = area_density(see_area_point(ref, p, n), l.area);
             break;
         case LightType::AreaSphere: pdf = sphere_density(scene.spheres[l.shape], l, ref, p, n); break;
-        case LightType::Point: pdf = 1.0f; break;  // the delta's mass, as LightSample::pdf reports it
+        case LightType::Point:
+        case LightType::Spot:
+        case LightType::Directional: pdf = 1.0f; break;  // the delta's mass, as LightSample::pdf reports it
         case LightType::Constant: pdf = kInv4Pi; break;
+        case LightType::Envmap: pdf = envmap_pdf(*l.envmap, wi); break;
     }
     return pdf * pmf;
 }

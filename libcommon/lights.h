@@ -1,9 +1,10 @@
-// Light sources: area emitters on triangle meshes and on analytic spheres, point lights, and a constant
-// environment. Lights are chosen in proportion to their power (luminance of their RGB power, in W).
+// Light sources: area emitters on triangle meshes and on analytic spheres, point and spot lights, a
+// directional light, and an environment (constant, or an equirectangular map). Lights are chosen in proportion to their power (luminance of their RGB power, in W).
 // Area emitters radiate only on the side their surface normal points to (Mitsuba convention).
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "libcommon/color.h"
@@ -14,13 +15,49 @@ namespace iris {
 
 struct Scene;
 
-enum class LightType : uint8_t { AreaMesh, AreaSphere, Point, Constant };
+enum class LightType : uint8_t { AreaMesh, AreaSphere, Point, Constant, Envmap, Spot, Directional };
+
+// An equirectangular (latitude-longitude) environment map in Mitsuba 0.5's convention: in the map's
+// local frame +y is up; the texel at (u, v) in [0,1)^2 (u along a row, v down the rows, row 0 at the
+// top) is the radiance arriving from direction
+//   d = (sin(phi) sin(theta), cos(theta), -cos(phi) sin(theta)),  phi = 2 pi u, theta = pi v,
+// i.e. u = atan2(d.x, -d.z) / 2 pi (wrapped to [0,1)), v = acos(d.y) / pi. Radiance is piecewise
+// constant per texel (nearest lookup) and sampled exactly in proportion to luminance x sin(theta) of
+// the texel centre, so pdf and radiance agree texel by texel.
+struct EnvMap {
+    int width = 0, height = 0;
+    std::vector<RGB> texels;           // W/(m^2 sr), scale applied; row-major, row 0 = theta 0
+    Distribution1D rows;               // marginal over rows (weight: the row's sum)
+    std::vector<Distribution1D> cols;  // per row: columns by luminance
+    Transform to_world, to_local;      // map frame <-> world (directions only)
+    RGB integral;                      // integral of the radiance over the sphere, W/m^2 (per channel)
+};
+
+// Builds an environment map from width x height texels (W/(m^2 sr)). Throws std::invalid_argument for a
+// size of zero, a texel count that does not match, or a negative or non-finite texel. An all-black map
+// is valid: it emits nothing and is never sampled.
+std::shared_ptr<const EnvMap> make_envmap(int width, int height, std::vector<RGB> texels, const Transform& to_world);
+// Radiance arriving from the world direction d (unit; pointing from the scene towards the sky).
+RGB envmap_eval(const EnvMap& m, Vec3 d);
+// Density per steradian with which envmap_sample produces d (0 where the map is black, or at a pole).
+float envmap_pdf(const EnvMap& m, Vec3 d);
+// A direction by the map's distribution; false for a black map (or a sample at a pole). *pdf is
+// envmap_pdf(*d), bit for bit.
+bool envmap_sample(const EnvMap& m, Vec2 u, Vec3* d, float* pdf);
+
+// Mitsuba 0.5's spot light falloff for cos(angle to the axis): 1 inside beam_width, falling linearly in
+// the angle to 0 at cutoff, 0 outside.
+float spot_falloff(float cutoff, float beam_width, float cos_cutoff, float cos_theta);
 
 struct Light {
     LightType type = LightType::AreaMesh;
-    RGB radiance;          // area/constant: radiance in W/(m^2 sr); point: intensity in W/sr
+    RGB radiance;          // area/constant: radiance in W/(m^2 sr); point/spot: intensity in W/sr;
+                           // directional: irradiance in W/m^2 (on a surface facing it); envmap: unused
+    Vec3 direction;        // Spot: unit axis of the cone; Directional: unit direction of travel (world)
+    float cutoff = 0, beam_width = 0, cos_cutoff = 1;  // Spot: half-angles in radians, cos(cutoff)
+    std::shared_ptr<const EnvMap> envmap;              // Envmap
     uint32_t shape = 0;    // AreaMesh: index into Scene::meshes; AreaSphere: index into Scene::spheres
-    Vec3 position;         // Point: position
+    Vec3 position;         // Point/Spot: position
     float area = 0;        // AreaMesh / AreaSphere: total surface area (m^2, world units squared)
     Distribution1D triangles;  // AreaMesh: triangle selection in proportion to area
     float sampling_weight = 1; // Mitsuba's `samplingWeight` (multiplies the selection weight)
@@ -44,8 +81,9 @@ struct LightSample {
 RGB light_emitted(const Light& l, Vec3 n, Vec3 w);
 
 // Total emitted power in W (RGB), used for light selection and photon flux. One-sided Lambertian area
-// emitters: pi A L (mesh), pi 4 pi r^2 L (sphere); point: 4 pi I; constant environment: pi R^2 4 pi L
-// with R the radius of the scene's bounding sphere (from scene.bounds_*, or from the meshes and spheres
+// emitters: pi A L (mesh), pi 4 pi r^2 L (sphere); point: 4 pi I; spot: I times the falloff's solid
+// angle; constant environment: pi R^2 4 pi L; envmap: pi R^2 times the map's integral; directional:
+// pi R^2 E; with R the radius of the scene's bounding sphere (from scene.bounds_*, or from the meshes and spheres
 // when the bounds are unset).
 RGB light_power(const Scene& scene, const Light& l);
 

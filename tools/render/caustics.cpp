@@ -21,7 +21,8 @@ CausticTracer::CausticTracer(const Scene& scene, const Camera& camera, int width
 bool CausticTracer::possible(const Scene& scene) {
     bool area_light = false;
     for (const Light& l : scene.lights)
-        area_light = area_light || l.type == LightType::AreaMesh || l.type == LightType::AreaSphere;
+        area_light = area_light || l.type == LightType::AreaMesh || l.type == LightType::AreaSphere ||
+                     l.type == LightType::Constant || l.type == LightType::Envmap;
     return area_light && has_specular_surfaces(scene);
 }
 
@@ -79,11 +80,14 @@ bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSpla
     const Vec2 u_pos{rng.next_float(), rng.next_float()}, u_dir{rng.next_float(), rng.next_float()};
     EmissionSample e;
     if (!sample_emission(scene_, u_sel, u_pos, u_dir, &e)) return true;
-    // Point lights and the environment (zero normal) are outside class C (caustics.h).
-    if (e.n.x == 0 && e.n.y == 0 && e.n.z == 0) return true;
+    // Delta lights (point, spot, directional) are outside class C (caustics.h); the environment's light
+    // paths start outside the scene (emission.h), with no surface to offset from.
+    const LightType type = scene_.lights[e.light].type;
+    const bool env = type == LightType::Constant || type == LightType::Envmap;
+    if (!env && e.n.x == 0 && e.n.y == 0 && e.n.z == 0) return true;
     RGB beta = e.flux;
     Ray ray;
-    ray.o = offset_ray_origin(e.p, e.n, e.d, scene_.scale());
+    ray.o = env ? e.p : offset_ray_origin(e.p, e.n, e.d, scene_.scale());
     ray.d = e.d;
     SurfaceHit hit;
     bool bad = false;

@@ -9,13 +9,14 @@
 //
 // The two estimators split path space instead of being mixed by MIS, so that neither needs the
 // other's densities. The caustic class C is every path x0 (camera) -> x1 -> ... -> xk (an area light)
-// with k >= 3 whose event at x1 is a non-Dirac one and whose events at x2 .. x(k-1) are all Dirac.
+// with k >= 3 whose event at x1 is a non-Dirac one and whose events at x2 .. x(k-1) are all Dirac; xk may
+// also be the environment (constant or envmap: a path that escapes after such a chain, traced from a
+// disk covering the scene, emission.h).
 // The path tracer drops exactly those contributions (PathSettings::light_traced_caustics: they are
 // emitter hits with MIS weight 1, after a delta chain that began at the first vertex), the light tracer
 // adds exactly those, and together they estimate the same image (unbiased; tests/pipeline test it
-// against the plain path tracer per pixel). Point lights and the environment are left out on both
-// sides: the camera cannot hit a point light (the path tracer has no point-light caustics, as Mitsuba's),
-// and escaped paths keep their environment light.
+// against the plain path tracer per pixel). Delta lights (point, spot, directional) are left out on both
+// sides: the camera cannot hit them (the path tracer has no delta-light caustics, as Mitsuba's).
 //
 // Each pass of one camera sample per pixel traces a number of light paths for the whole image (by default
 // as many as it has pixels; render's pilot chooses the number where it decides, integrator.h); their

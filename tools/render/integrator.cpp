@@ -87,11 +87,17 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             if (scene.environment_light >= 0) {
                 const Light& env = scene.lights[scene.environment_light];
                 RGB le = light_emitted(env, Vec3(0), -ray.d);
-                float w = 1.0f;
-                if (!prev_delta && use_nee)
-                    w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(scene.environment_light), prev_p,
-                                                            Vec3(0), Vec3(0), ray.d));
-                L += beta * le * w;
+                if (caustic_chain && depth >= 3) {
+                    // The environment's share of the caustic class (caustics.h), as for emitter hits.
+                    if (caustic) *caustic += beta * le;
+                    if (!ps.light_traced_caustics) L += beta * le;
+                } else {
+                    float w = 1.0f;
+                    if (!prev_delta && use_nee)
+                        w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(scene.environment_light), prev_p,
+                                                                Vec3(0), Vec3(0), ray.d));
+                    L += beta * le * w;
+                }
             }
             break;
         }
