@@ -263,7 +263,8 @@ EnvCoord env_coord(const EnvMap& m, Vec3 d_world) {
     float v = safe_acos(d.y) * kInvPi;
     c.col = std::min(m.width - 1, std::max(0, int(u * float(m.width))));
     c.row = std::min(m.height - 1, std::max(0, int(v * float(m.height))));
-    c.sin_theta = std::sqrt(std::max(0.0f, 1.0f - d.y * d.y));
+    // From x and z, not 1 - y^2: near the poles y rounds to +-1 while sin(theta) is still ~1e-5.
+    c.sin_theta = std::sqrt(d.x * d.x + d.z * d.z);
     return c;
 }
 

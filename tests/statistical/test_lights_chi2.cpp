@@ -21,7 +21,7 @@
 namespace iris {
 namespace {
 
-constexpr int kLightChi2Tests = 7;
+constexpr int kLightChi2Tests = 9;
 
 Mesh quad_mesh(Vec3 c, Vec3 e1, Vec3 e2) {
     Mesh m;
@@ -102,10 +102,10 @@ double direction_pdf(const Scene& scene, Vec3 ref, Dir w) {
                 if (sp.flip_normals) n = -n;
                 sum += light_pdf(scene, li, ref, p, n, wf);
             }
-        } else if (l.type == LightType::Constant) {
+        } else if (l.type == LightType::Constant || l.type == LightType::Envmap) {
             sum += light_pdf(scene, li, ref, Vec3(0), Vec3(0), wf);
         }
-        // Point lights: a delta, excluded from the continuous density.
+        // Point, spot and directional lights: deltas, excluded from the continuous density.
     }
     return sum;
 }
@@ -267,6 +267,51 @@ TEST(LightChi2, MixtureWithEnvironmentAndPointLight) {
     s.bounds_max = Vec3(2, 2, 2);
     lights_prepare(s);
     for (uint32_t i = 0; i < 3; ++i) EXPECT_GT(light_selection_pmf(s, i), 0.1f) << i;
+    run_plain(s, Vec3(0.1f, -0.2f, 0.1f), Quadrature::FixedFine);
+}
+
+// A small latlong map with a bright spot, a black row and a black column, structure at every scale the
+// grid sees (12 x 6 texels: texel edges do not lie on cell edges, hence the fixed fine quadrature).
+std::shared_ptr<const EnvMap> test_envmap(const Transform& to_world) {
+    const int w = 12, h = 6;
+    std::vector<RGB> t(size_t(w * h));
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            RGB v(0.2f + 0.1f * float(x), 0.5f, 0.1f + 0.3f * float(y));  // a gradient
+            if (y == 1) v = RGB(0);                                       // a black row
+            if (x == 7) v = RGB(0);                                       // a black column
+            if (x == 3 && y == 2) v = RGB(40, 30, 20);                    // the "sun"
+            t[size_t(y * w + x)] = v;
+        }
+    return make_envmap(w, h, std::move(t), to_world);
+}
+
+TEST(LightChi2, Envmap) {
+    Scene s;
+    Light env;
+    env.type = LightType::Envmap;
+    env.envmap = test_envmap(Transform());
+    s.lights.push_back(env);
+    s.bounds_min = Vec3(-1);
+    s.bounds_max = Vec3(1);
+    lights_prepare(s);
+    run_plain(s, Vec3(0.1f, 0.2f, -0.3f), Quadrature::FixedFine);
+}
+
+TEST(LightChi2, RotatedEnvmapWithAreaLight) {
+    // toWorld tilts the map's +y up by 60 degrees, mixed with an area light chosen by power. (Not by 90:
+    // the map's pole, where the density per steradian grows as 1 / sin(theta), would then sit on the
+    // grid's pole, where chi2.h's fixed quadrature cannot integrate it.)
+    Scene s;
+    add_mesh_light(s, quad_mesh({-1, -1, 1}, {0, 2, 0}, {2, 0, 0}), RGB(20, 20, 20));
+    Light env;
+    env.type = LightType::Envmap;
+    env.envmap = test_envmap(Transform::rotate(Vec3(1, 0, 0), 60) * Transform::rotate(Vec3(0, 1, 0), 30));
+    s.lights.push_back(env);
+    s.bounds_min = Vec3(-2);
+    s.bounds_max = Vec3(2);
+    lights_prepare(s);
+    for (uint32_t i = 0; i < 2; ++i) EXPECT_GT(light_selection_pmf(s, i), 0.05f) << i;
     run_plain(s, Vec3(0.1f, -0.2f, 0.1f), Quadrature::FixedFine);
 }
 
