@@ -202,6 +202,20 @@ protected:
         write_text(in("huge_vertex.xml"), scene_with(obj_shape("huge_vertex.obj")));
         write_text(in("huge_vertex.obj"), "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n");
         write_text(in("empty_obj.xml"), scene_with(obj_shape("empty.obj")));
+        // Emitters: envmaps missing, unreadable or with nonsense parameters; spot and directional lights
+        // with impossible angles or no direction.
+        auto emitter = [&](const std::string& body) { return scene_with(sphere, "\n  <emitter " + body + "</emitter>"); };
+        write_text(in("envmap_missing.xml"), emitter(R"(type="envmap"><string name="filename" value="no_such_sky.exr"/>)"));
+        write_text(in("not_an_exr.exr"), "this is no OpenEXR image\n");
+        write_text(in("envmap_garbage.xml"), emitter(R"(type="envmap"><string name="filename" value="not_an_exr.exr"/>)"));
+        write_text(in("envmap_empty_file.exr"), "");
+        write_text(in("envmap_empty.xml"), emitter(R"(type="envmap"><string name="filename" value="envmap_empty_file.exr"/>)"));
+        write_text(in("envmap_negative_scale.xml"),
+                   emitter(R"(type="envmap"><string name="filename" value="image.exr"/><float name="scale" value="-2"/>)"));
+        write_text(in("spot_cutoff.xml"), emitter(R"(type="spot"><float name="cutoffAngle" value="-5"/>)"));
+        write_text(in("spot_beam.xml"),
+                   emitter(R"(type="spot"><float name="cutoffAngle" value="10"/><float name="beamWidth" value="30"/>)"));
+        write_text(in("directional_zero.xml"), emitter(R"(type="directional"><vector name="direction" x="0" y="0" z="0"/>)"));
         write_text(in("empty.obj"), "# no faces\nv 0 0 0\n");
         fs::create_directory(in("adir"));
     }
@@ -271,6 +285,14 @@ const BadInputCase kCases[] = {
     {"MeshNanVertex", "render", "OBJ vertex with NaN coordinate", "{in}/nan_vertex.xml -o {out}", "nan_vertex.obj"},
     {"MeshInfVertex", "render", "OBJ vertex overflowing float (1e39)", "{in}/huge_vertex.xml -o {out}", "huge_vertex.obj"},
     {"MeshEmpty", "render", "OBJ without faces", "{in}/empty_obj.xml -o {out}", "empty.obj"},
+    {"EnvmapMissing", "render", "envmap file does not exist", "{in}/envmap_missing.xml -o {out}", "no_such_sky.exr"},
+    {"EnvmapGarbage", "render", "envmap file that is not an image", "{in}/envmap_garbage.xml -o {out}", "not_an_exr.exr"},
+    {"EnvmapEmptyFile", "render", "envmap file of 0 bytes", "{in}/envmap_empty.xml -o {out}", "envmap_empty_file.exr"},
+    {"EnvmapNegativeScale", "render", "envmap scale -2", "{in}/envmap_negative_scale.xml -o {out}", "scale"},
+    {"SpotNegativeCutoff", "render", "spot light cutoffAngle -5", "{in}/spot_cutoff.xml -o {out}", "cutoffAngle"},
+    {"SpotBeamWiderThanCutoff", "render", "spot light beamWidth 30 > cutoffAngle 10", "{in}/spot_beam.xml -o {out}", "beamWidth"},
+    {"DirectionalZeroDirection", "render", "directional light with direction (0, 0, 0)", "{in}/directional_zero.xml -o {out}", "direction"},
+    {"TracePhotonsEnvmapMissing", "trace-photons", "envmap file does not exist", "{in}/envmap_missing.xml -o {out}", "no_such_sky.exr"},
     {"TracePhotonsSceneMissing", "trace-photons", "scene file does not exist", "{in}/missing.xml -o {out}", "missing.xml"},
     {"PlaceCachesSceneMalformed", "place-caches", "malformed scene", "{in}/malformed.xml --photons {in}/photons.h5 -o {out}", "malformed.xml"},
 
