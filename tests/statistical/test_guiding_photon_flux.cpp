@@ -209,3 +209,103 @@ TEST(GuidingPhotonFlux, CausticFlagsMarkLightThatPassedASpecularBounce) {
 
 }  // namespace
 }  // namespace iris
+
+#include <filesystem>
+#include <fstream>
+
+#include <unistd.h>
+
+#include "formats/exr.h"
+
+namespace iris {
+namespace {
+
+// Furnace-style checks of the lights outside the scene: a diffuse unit sphere alone under a constant
+// environment L, an environment map, or a directional light E. Every line that meets the sphere crosses
+// the photons' emission disk, so the first hits' powers must sum to the flux onto the sphere, by hand:
+//   constant:    pi r^2 * 4 pi L (projected area pi r^2 from every direction; irradiance pi L at
+//                every point: 4 pi r^2 * pi L, the same);
+//   envmap:      pi r^2 * (the integral of the map's radiance over the sphere), summed by hand here
+//                from its texels (a map of two values: rows above / below the horizon);
+//   directional: pi r^2 E.
+// The bounding sphere has radius sqrt(3) r, so a third of the photons hit; each test compares the
+// sum against 5 standard errors estimated from the paths' own powers.
+std::string sphere_scene(const std::string& emitter) {
+    return R"(<?xml version="1.0"?>
+<scene version="0.5.0">
+  <integrator type="path"/>
+  <shape type="sphere"><float name="radius" value="1"/>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0.5, 0.5, 0.5"/></bsdf></shape>
+  )" + emitter + R"(
+  <sensor type="perspective">
+    <transform name="toWorld"><lookAt origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/></film>
+  </sensor>
+</scene>
+)";
+}
+
+void check_first_hit_flux(const std::string& emitter, const double expect[3], const std::filesystem::path& dir) {
+    const std::filesystem::path xml = dir / "scene.xml";
+    std::ofstream(xml) << sphere_scene(emitter);
+    SceneLoadOptions lo;
+    std::vector<std::string> warnings;
+    lo.warnings = &warnings;
+    const Scene scene = load_scene(xml.string(), lo);
+    const uint64_t n = 200000;
+    const PhotonMap map = trace(scene, n, 1, 7);
+    EXPECT_GT(map.size(), n / 4);
+    EXPECT_LT(map.size(), n / 2);
+    for (int c = 0; c < 3; ++c) {
+        double sum = 0, sum2 = 0;
+        for (const RGB& p : map.power) {
+            const double v = c == 0 ? p.r : c == 1 ? p.g : p.b;
+            sum += v;
+            sum2 += v * v;
+        }
+        // Per path: x = power (or 0 for a path that missed); the sum's standard error is sqrt(n var(x)).
+        const double mean = sum / double(n), var = sum2 / double(n) - mean * mean;
+        const double sigma = std::sqrt(double(n) * var);
+        EXPECT_NEAR(sum, expect[c], 5 * sigma) << emitter << " channel " << c;
+        EXPECT_LT(sigma, 0.01 * expect[c]) << "too few photons for a sharp test";
+    }
+}
+
+TEST(GuidingPhotonFlux, EnvironmentAndDirectionalPhotonsBringTheirFluxOntoASphere) {
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                      ("iris-env-flux-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    const double pi = 3.14159265358979323846;
+    {
+        const double e[3] = {pi * 4 * pi * 1.0, pi * 4 * pi * 2.0, pi * 4 * pi * 0.5};
+        check_first_hit_flux(R"(<emitter type="constant"><rgb name="radiance" value="1, 2, 0.5"/></emitter>)", e, dir);
+    }
+    {
+        // 8 x 4 map: upper two rows (the upper hemisphere, +y) radiance (3, 1, 2), lower rows (0.5, 0.5, 0):
+        // each hemisphere spans 2 pi sr. A scale of 2 doubles it.
+        Image img;
+        img.width = 8;
+        img.height = 4;
+        for (const char* c : {"R", "G", "B"}) img.add_channel(c);  // (sized width x height, zeroed)
+        for (int y = 0; y < 4; ++y)
+            for (int x = 0; x < 8; ++x) {
+                img.data[0][size_t(y * 8 + x)] = y < 2 ? 3.0f : 0.5f;
+                img.data[1][size_t(y * 8 + x)] = y < 2 ? 1.0f : 0.5f;
+                img.data[2][size_t(y * 8 + x)] = y < 2 ? 2.0f : 0.0f;
+            }
+        write_exr((dir / "sky.exr").string(), img);
+        const double e[3] = {pi * 2 * 2 * pi * (3 + 0.5), pi * 2 * 2 * pi * (1 + 0.5), pi * 2 * 2 * pi * 2};
+        check_first_hit_flux(R"(<emitter type="envmap"><string name="filename" value="sky.exr"/>
+            <float name="scale" value="2"/>
+            <transform name="toWorld"><rotate x="1" angle="70"/></transform></emitter>)", e, dir);
+    }
+    {
+        const double e[3] = {pi * 4, pi * 1, pi * 2};
+        check_first_hit_flux(R"(<emitter type="directional"><vector name="direction" x="1" y="-2" z="0.5"/>
+            <rgb name="irradiance" value="4, 1, 2"/></emitter>)", e, dir);
+    }
+    std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace iris
