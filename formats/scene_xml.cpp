@@ -33,6 +33,7 @@
 #include <unordered_map>
 
 #include "formats/exr.h"
+#include "formats/image_file.h"
 #include "formats/obj.h"
 #include "libcommon/spectrum.h"
 
@@ -1437,7 +1438,7 @@ private:
         return d / len;
     }
 
-    // emitter "envmap": a latitude-longitude image (EXR; Radiance HDR once formats/image_file reads it),
+    // emitter "envmap": a latitude-longitude image (EXR or Radiance HDR; PNG/JPEG decoded from sRGB),
     // times `scale`, oriented by toWorld (Mitsuba 0.5: +y up in the map's frame).
     void envmap(const Source& src, Plugin& e, Light* l) {
         std::optional<std::string> file = get_string(e, "filename");
@@ -1455,11 +1456,20 @@ private:
             fail(src, fline, "cannot read envmap file " + quote(*file) + " (resolved to " + path.string() + ")");
         fingerprint_.add(bytes);
         Image img;
+        bool display_encoded = false;
         try {
-            img = read_exr(path.string());
+            ImageFile f = read_image_file(path.string());
+            img = std::move(f.image);
+            display_encoded = f.display_encoded;
         } catch (const std::exception& ex) {
             fail(src, fline, "envmap " + quote(*file) + ": " + ex.what());
         }
+        // PNG/JPEG maps hold sRGB-encoded values (Mitsuba decodes them so); EXR/HDR are linear radiance.
+        if (display_encoded)
+            for (int c : {img.channel_index("R"), img.channel_index("G"), img.channel_index("B")})
+                if (c >= 0)
+                    for (float& v : img.data[size_t(c)])
+                        v = v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
         const int ri = img.channel_index("R"), gi = img.channel_index("G"), bi = img.channel_index("B");
         const int yi = img.channel_index("Y");
         if ((ri < 0 || gi < 0 || bi < 0) && yi < 0)

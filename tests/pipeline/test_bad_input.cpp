@@ -209,6 +209,8 @@ protected:
         write_text(in("not_an_exr.exr"), "this is no OpenEXR image\n");
         write_text(in("envmap_garbage.xml"), emitter(R"(type="envmap"><string name="filename" value="not_an_exr.exr"/>)"));
         write_text(in("envmap_empty_file.exr"), "");
+        write_text(in("envmap_zero.hdr"), "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n");
+        write_text(in("envmap_zero_hdr.xml"), emitter(R"(type="envmap"><string name="filename" value="envmap_zero.hdr"/>)"));
         write_text(in("envmap_empty.xml"), emitter(R"(type="envmap"><string name="filename" value="envmap_empty_file.exr"/>)"));
         write_text(in("envmap_negative_scale.xml"),
                    emitter(R"(type="envmap"><string name="filename" value="image.exr"/><float name="scale" value="-2"/>)"));
@@ -288,6 +290,7 @@ const BadInputCase kCases[] = {
     {"EnvmapMissing", "render", "envmap file does not exist", "{in}/envmap_missing.xml -o {out}", "no_such_sky.exr"},
     {"EnvmapGarbage", "render", "envmap file that is not an image", "{in}/envmap_garbage.xml -o {out}", "not_an_exr.exr"},
     {"EnvmapEmptyFile", "render", "envmap file of 0 bytes", "{in}/envmap_empty.xml -o {out}", "envmap_empty_file.exr"},
+    {"EnvmapHdrZeroSize", "render", "Radiance HDR envmap of 0 x 0 pixels", "{in}/envmap_zero_hdr.xml -o {out}", "envmap_zero.hdr"},
     {"EnvmapNegativeScale", "render", "envmap scale -2", "{in}/envmap_negative_scale.xml -o {out}", "scale"},
     {"SpotNegativeCutoff", "render", "spot light cutoffAngle -5", "{in}/spot_cutoff.xml -o {out}", "cutoffAngle"},
     {"SpotBeamWiderThanCutoff", "render", "spot light beamWidth 30 > cutoffAngle 10", "{in}/spot_beam.xml -o {out}", "beamWidth"},
