@@ -307,6 +307,30 @@ TEST(CausticLightTracing, AgreesWithThePathTracerPerPixel) {
     }
 }
 
+// An envmap scene (glass sphere on a floor, lit only by the map): guided rendering, and the light
+// tracer's environment caustics, agree with the unguided path tracer per pixel.
+TEST(GuidingUnbiased, EnvmapSceneAgreesPerPixel) {
+    TempDir dir;
+    const std::string scene = data_file("guiding/env_glass.xml");
+    ASSERT_TRUE(build_atlases(scene, dir));
+    const Layers unguided = render(scene, dir, "unguided", "--spp 512 --seed 1");
+    const double z_crit = normal_critical(kAlpha / test_count(unguided, 2));
+    const std::pair<const char*, std::string> runs[] = {
+        {"guided nee+bsdf+cache", "--spp 512 --seed 2 --mode nee+bsdf+cache --atlas " + dir.file("atlas.h5")},
+        {"light-traced caustics", "--caustics on --spp 512 --seed 3"}};
+    int i = 0;
+    for (const auto& [label, args] : runs) {
+        SCOPED_TRACE(label);
+        const Layers other = render(scene, dir, "env" + std::to_string(i++), args);
+        ASSERT_EQ(other.w, unguided.w);
+        const Verdict v = compare(other, unguided, 1.0, z_crit);
+        std::printf("%-24s largest |z|: pixel %.2f (%s), block %.2f, image %.2f\n", label, v.worst_z[0],
+                    v.worst_where[0].c_str(), v.worst_z[1], v.worst_z[2]);
+        EXPECT_EQ(v.rejections, 0) << label << " disagrees with the unguided render:\n" << v.log;
+        EXPECT_GT(compare(other, unguided, 1.05, z_crit).rejections, 0) << "the test cannot tell a 5 % bias";
+    }
+}
+
 // --mode auto weighs unguided sampling against guiding the first vertex and, unless the user fixed
 // --guide-vertices, --rr-depth or --rr-threshold, guiding every vertex with Russian roulette only below
 // throughput 0.1 (the default threshold is 0.3; the caustic box's rrDepth is the default, 5); the image
