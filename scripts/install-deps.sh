@@ -9,6 +9,7 @@ $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends \
   build-essential cmake make pkg-config \
   libembree-dev libopenexr-dev libimath-dev libhdf5-dev hdf5-tools libcli11-dev libtinyobjloader-dev \
+  slurm-wlm munge bc \
   libtbb-dev libnanoflann-dev libpugixml-dev libgtest-dev libpng-dev libjpeg-dev libstb-dev zlib1g-dev \
   python3 python3-matplotlib >/dev/null
 echo "install-deps: done"

@@ -1,0 +1,144 @@
+#!/usr/bin/env bash
+# Submits the guided pipeline as Slurm jobs with dependencies, on a file system every node shares:
+#
+#   photons job array (PHOTON_TASKS x trace-photons --path-range) -> merge-photons -> place-caches
+#   -> fill-caches -> render job array (TASKS x render --sample-range) -> merge-images -> OUT/guided.exr
+#
+#   pipelines/slurm/iris-slurm.sh SCENE=scenes/cbox/glass_spheres.xml OUT=/shared/out/spheres SPP=256 TASKS=8
+#
+# Parameters (KEY=VALUE arguments or environment), as in pipelines/guided.mk where they exist:
+#   SCENE OUT BIN SEED PATHS PHOTON_DEPTH MIN_CAUSTIC COUNT STRIDE K RES SIGMA FLOOR MAX_RADIUS BSDF_FRACTION
+#   SPP      samples per pixel in all (a split render has a fixed spp: no TIME)      default 64
+#   MODE     a fixed mode (auto's pilot is measured per process and is refused)      default nee+bsdf+cache
+#   CAUSTICS on | off (auto is refused for the same reason)                          default off
+#   TASKS, PHOTON_TASKS   tasks of the render and photon arrays                      default 4, 2
+#   CPUS     CPUs per task (and -t of each tool)                                     default 1
+#   RENDER_FLAGS          more render flags (e.g. --resolution 640x480 --max-depth 8)
+#   RETRIES  times a task's tool is re-run by the task itself after it failed or was killed  default 1
+#   SBATCH_FLAGS          extra sbatch flags for every job (partition, account, time limit, ...)
+#   WAIT=1   block until the final merge ends (sbatch --wait); exit status = the pipeline's
+# Faults: every job is submitted with --requeue (Slurm re-runs a task whose node failed or that was
+# preempted) and each task re-runs its tool up to RETRIES times when it exits non-zero or is killed;
+# tools write atomically, so a part is complete or absent, and the merges refuse a missing part (naming
+# its range) -- a task that fails for good leaves the merge job's dependency unsatisfied, and Slurm
+# cancels it (--kill-on-invalid-dep=yes). Each job's log: OUT/logs/<job>-<array task>.log.
+set -euo pipefail
+
+here=$(cd "$(dirname "$0")" && pwd)
+self="$here/$(basename "$0")"
+
+# One task of an array or one stage, run by Slurm on a node: `iris-slurm.sh task STAGE` with the
+# parameters in the environment (sbatch --export=ALL).
+if [[ "${1:-}" == task ]]; then
+  stage=$2
+  id=${SLURM_ARRAY_TASK_ID:-0}
+  range() {  # task id of n over total -> "A:B" (contiguous, sizes differ by at most one)
+    local n=$1 total=$2
+    echo "$(( id * total / n )):$(( (id + 1) * total / n ))"
+  }
+  run() {  # the tool, re-run up to RETRIES times after a failure or a kill
+    local attempt=0
+    while :; do
+      local status=0
+      if [[ -n "${IRIS_SLURM_FAULT:-}" && "$IRIS_SLURM_FAULT" == "$stage:$id" && ! -e "$OUT/logs/fault-$stage-$id" ]]; then
+        # Fault injection for tests: the first attempt of this task is killed (SIGKILL) as it starts
+        # (counted as killed even where it won the race and finished).
+        touch "$OUT/logs/fault-$stage-$id"
+        "$@" & local pid=$!
+        kill -KILL "$pid" 2>/dev/null || true
+        wait "$pid" || true
+        status=137
+      else
+        "$@" || status=$?
+      fi
+      [[ $status == 0 ]] && return 0
+      echo "iris-slurm: $stage task $id: exit status $status (attempt $((attempt + 1)) of $((RETRIES + 1)))" >&2
+      attempt=$((attempt + 1))
+      (( attempt > RETRIES )) && return "$status"
+    done
+  }
+  common=(--seed "$SEED" -t "$CPUS" -q)
+  case $stage in
+    photons)
+      run "$BIN/trace-photons" "$SCENE" -o "$OUT/parts/photons-$id.h5" --paths "$PATHS" --max-depth "$PHOTON_DEPTH" \
+        --min-caustic-share "$MIN_CAUSTIC" --path-range "$(range "$PHOTON_TASKS" "$PATHS")" "${common[@]}" ;;
+    merge-photons)
+      parts=(); for ((i = 0; i < PHOTON_TASKS; ++i)); do parts+=("$OUT/parts/photons-$i.h5"); done
+      run "$BIN/merge-photons" "${parts[@]}" -o "$OUT/photons.h5" -q ;;
+    caches)
+      run "$BIN/place-caches" "$SCENE" --photons "$OUT/photons.h5" -o "$OUT/caches.h5" --count "$COUNT" \
+        --camera-stride "$STRIDE" --min-caustic-share "$MIN_CAUSTIC" "${common[@]}" ;;
+    atlas)
+      direct=(); [[ $MODE == bsdf+cache ]] && direct=(--direct)
+      run "$BIN/fill-caches" "$OUT/caches.h5" --photons "$OUT/photons.h5" -o "$OUT/atlas.h5" --k "$K" --resolution "$RES" \
+        --filter-sigma "$SIGMA" --floor "$FLOOR" --max-radius "$MAX_RADIUS" "${direct[@]}" "${common[@]}" ;;
+    render)
+      # shellcheck disable=SC2086  # RENDER_FLAGS is a list of flags
+      run "$BIN/render" "$SCENE" --atlas "$OUT/atlas.h5" --mode "$MODE" --bsdf-fraction "$BSDF_FRACTION" \
+        --caustics "$CAUSTICS" --spp "$SPP" --sample-range "$(range "$TASKS" "$SPP")" --variance $RENDER_FLAGS \
+        -o "$OUT/parts/render-$id.exr" "${common[@]}" ;;
+    merge-images)
+      parts=(); for ((i = 0; i < TASKS; ++i)); do parts+=("$OUT/parts/render-$i.exr"); done
+      run "$BIN/merge-images" "${parts[@]}" -o "$OUT/guided.exr" -q ;;
+    *) echo "iris-slurm: error: unknown stage '$stage'" >&2; exit 2 ;;
+  esac
+  exit 0
+fi
+
+for arg in "$@"; do
+  [[ "$arg" == *=* ]] || { echo "iris-slurm: error: arguments are KEY=VALUE, got '$arg'" >&2; exit 2; }
+  export "${arg?}"
+done
+root=$(cd "$here/../.." && pwd)
+export SCENE=${SCENE:-$root/scenes/cbox/glass_spheres.xml}
+export OUT=${OUT:-$root/out/slurm/$(basename "${SCENE%.*}")}
+export BIN=${BIN:-$root/build/bin} SEED=${SEED:-1}
+export PATHS=${PATHS:-250000} PHOTON_DEPTH=${PHOTON_DEPTH:-30} MIN_CAUSTIC=${MIN_CAUSTIC:-0.005}
+export COUNT=${COUNT:-4000} STRIDE=${STRIDE:-8} K=${K:-1000} RES=${RES:-32} SIGMA=${SIGMA:-0.75} FLOOR=${FLOOR:-0.1}
+export MAX_RADIUS=${MAX_RADIUS:-0.05} BSDF_FRACTION=${BSDF_FRACTION:-auto}
+export SPP=${SPP:-64} MODE=${MODE:-nee+bsdf+cache} CAUSTICS=${CAUSTICS:-off}
+export TASKS=${TASKS:-4} PHOTON_TASKS=${PHOTON_TASKS:-2} CPUS=${CPUS:-1} RETRIES=${RETRIES:-1}
+export RENDER_FLAGS=${RENDER_FLAGS:-}
+SBATCH_FLAGS=${SBATCH_FLAGS:-}
+WAIT=${WAIT:-0}
+err() { echo "iris-slurm: error: $*" >&2; exit 2; }
+[[ $MODE == auto ]] && err "MODE=auto cannot be split into sample ranges (its pilot is measured per process); give a fixed mode"
+[[ $CAUSTICS == auto ]] && err "CAUSTICS=auto cannot be split into sample ranges; give on or off"
+for v in SPP TASKS PHOTON_TASKS CPUS PATHS; do [[ ${!v} =~ ^[1-9][0-9]*$ ]] || err "$v must be a positive integer, got '${!v}'"; done
+(( TASKS <= SPP )) || err "TASKS ($TASKS) must not exceed SPP ($SPP)"
+(( PHOTON_TASKS <= PATHS )) || err "PHOTON_TASKS ($PHOTON_TASKS) must not exceed PATHS ($PATHS)"
+[[ -f $SCENE ]] || err "$SCENE: scene file does not exist"
+for t in trace-photons merge-photons place-caches fill-caches render merge-images; do
+  [[ -x $BIN/$t ]] || err "$BIN/$t: not built (cmake --build build)"
+done
+command -v sbatch >/dev/null || err "sbatch not found: Slurm's client commands are needed (Debian: slurm-client)"
+mkdir -p "$OUT/parts" "$OUT/logs"
+# A new run: stale parts of an earlier one must not be merged (they would be refused anyway if their
+# settings differ; if they agree they are the same samples).
+rm -f "$OUT"/parts/* "$OUT"/logs/fault-* "$OUT/guided.exr"
+
+# shellcheck disable=SC2086  # SBATCH_FLAGS is a list of flags
+submit() {  # NAME DEPENDENCY ARRAY_SIZE [--wait] -> job id
+  local name=$1 dep=$2 n=$3; shift 3
+  local flags=(--parsable --export=ALL --requeue --kill-on-invalid-dep=yes --job-name "iris-$name"
+               --cpus-per-task "$CPUS" --open-mode=append)
+  [[ -n $dep ]] && flags+=(--dependency "afterok:$dep")
+  if (( n > 1 )); then flags+=(--array "0-$((n - 1))" --output "$OUT/logs/$name-%a.log")
+  else flags+=(--output "$OUT/logs/$name.log"); fi
+  sbatch "${flags[@]}" $SBATCH_FLAGS "$@" "$self" task "$name" | cut -d';' -f1
+}
+j1=$(submit photons "" "$PHOTON_TASKS")
+j2=$(submit merge-photons "$j1" 1)
+j3=$(submit caches "$j2" 1)
+j4=$(submit atlas "$j3" 1)
+j5=$(submit render "$j4" "$TASKS")
+echo "iris-slurm: submitted photons $j1 (x$PHOTON_TASKS), merge-photons $j2, place-caches $j3, fill-caches $j4," \
+     "render $j5 (x$TASKS, $SPP spp), merge-images (next); output $OUT/guided.exr" >&2
+if [[ $WAIT == 1 ]]; then
+  status=0
+  j6=$(submit merge-images "$j5" 1 --wait) || status=$?
+  [[ $status == 0 && -f $OUT/guided.exr ]] || { echo "iris-slurm: error: the pipeline failed (see $OUT/logs/)" >&2; exit 1; }
+  echo "iris-slurm: done, $OUT/guided.exr (merge job $j6)" >&2
+else
+  submit merge-images "$j5" 1
+fi
