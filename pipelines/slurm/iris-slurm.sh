@@ -16,7 +16,7 @@
 #   RENDER_FLAGS          more render flags (e.g. --resolution 640x480 --max-depth 8)
 #   RETRIES  times a task's tool is re-run by the task itself after it failed or was killed  default 1
 #   SBATCH_FLAGS          extra sbatch flags for every job (partition, account, time limit, ...)
-#   WAIT=1   block until the final merge ends (sbatch --wait); exit status = the pipeline's
+#   WAIT=1   block until every job has left the queue; exit status 0 if OUT/guided.exr was written
 # Faults: every job is submitted with --requeue (Slurm re-runs a task whose node failed or that was
 # preempted) and each task re-runs its tool up to RETRIES times when it exits non-zero or is killed;
 # tools write atomically, so a part is complete or absent, and the merges refuse a missing part (naming
@@ -135,9 +135,10 @@ j5=$(submit render "$j4" "$TASKS")
 echo "iris-slurm: submitted photons $j1 (x$PHOTON_TASKS), merge-photons $j2, place-caches $j3, fill-caches $j4," \
      "render $j5 (x$TASKS, $SPP spp), merge-images (next); output $OUT/guided.exr" >&2
 if [[ $WAIT == 1 ]]; then
-  status=0
-  j6=$(submit merge-images "$j5" 1 --wait) || status=$?
-  [[ $status == 0 && -f $OUT/guided.exr ]] || { echo "iris-slurm: error: the pipeline failed (see $OUT/logs/)" >&2; exit 1; }
+  # Poll squeue once a second (sbatch --wait backs off to ~30 s between polls on a 10 s pipeline).
+  j6=$(submit merge-images "$j5" 1)
+  while [[ -n $(squeue -h -j "$j1,$j2,$j3,$j4,$j5,$j6" -o %i 2>/dev/null) ]]; do sleep 1; done
+  [[ -f $OUT/guided.exr ]] || { echo "iris-slurm: error: the pipeline failed (see $OUT/logs/)" >&2; exit 1; }
   echo "iris-slurm: done, $OUT/guided.exr (merge job $j6)" >&2
 else
   submit merge-images "$j5" 1
