@@ -107,3 +107,39 @@ $(foreach s,$(SCENES_ALL),$(eval $(call scene_rules,$(s))))
 # Re-draws the committed reports' plots from their tables (no renders; the budget on the time axis).
 plots:
 	$(PYTHON) scripts/bench.py plots $(wildcard docs/benchmarks/full*.md docs/benchmarks/quick*.md)
+
+# A peer in the benchmark (issue 25): iris unguided, iris guided (guided.mk's defaults) and Blender Cycles
+# (Debian's package, CPU path tracer, scripts/cycles_render.py) at the same ladder of total wall-clock
+# budgets, interleaved per budget, each against one iris unguided reference per scene; the report is
+# docs/benchmarks/peers.md with a plot per scene (Debian's /usr/bin/python3 has python3-matplotlib).
+#   make -f pipelines/bench.mk peers                       # glass-spheres box and diffuse box, 10/20/40 s (~9 min + 4 min of references)
+#   make -f pipelines/bench.mk peers PEER_BUDGETS=15,30,60 PEER_REF_TIME=600   # the issue's ladder
+# Blender is a benchmark-only dependency (~300 MB with its data): installed here when missing and run as
+# root, never by scripts/install-deps.sh, and no test needs it.
+PEER_SCENES ?= cbox_kugeln:cbox_kugeln.xml cbox_diffuse_boxes:cbox_diffuse_boxes.xml
+PEER_BUDGETS ?= 10,20,40
+PEER_SCALE ?= 0.5
+# The references are time-bounded (iris unguided, PEER_REF_TIME seconds): the shared machine's sample rate
+# varies several-fold; compare-images states each reference's own share of the relMSE.
+PEER_REF_TIME ?= 120
+BLENDER ?= blender
+PEER_RUNS := out/bench/peers
+peer_ref = $(REF_DIR)/peer-$(1)-s$(PEER_SCALE)-$(PEER_REF_TIME)s.exr
+PEER_GIVEN := $(foreach v,PEER_SCENES PEER_BUDGETS PEER_SCALE PEER_REF_TIME PIPELINE,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
+.PHONY: peers peer-blender
+peer-blender:
+	@command -v $(BLENDER) >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get install -y blender; } || \
+	  { echo "bench.mk: error: $(BLENDER) not found; install Debian's package: apt-get install blender" >&2; exit 1; }
+peers: $(foreach s,$(PEER_SCENES),$(PEER_RUNS)/$(call name_of,$(s))/results.json)
+	/usr/bin/python3 scripts/bench_peers.py report --runs $(PEER_RUNS) \
+	  --names $(foreach s,$(PEER_SCENES),$(call name_of,$(s))) -o docs/benchmarks/peers.md --assets docs/benchmarks/peers $(PEER_GIVEN)
+define peer_rules
+$(call peer_ref,$(call name_of,$(1))): $(SEEDS)/$(word 2,$(subst :, ,$(1)))
+	@mkdir -p $(REF_DIR)
+	IRIS_BIN=$(BIN) /usr/bin/python3 scripts/bench_peers.py reference --scene $$< --scale $(PEER_SCALE) --seconds $(PEER_REF_TIME) -o $$@
+$(PEER_RUNS)/$(call name_of,$(1))/results.json: $(call peer_ref,$(call name_of,$(1))) peer-blender FORCE
+	IRIS_BIN=$(BIN) BLENDER=$(BLENDER) /usr/bin/python3 scripts/bench_peers.py runs --scene $(SEEDS)/$(word 2,$(subst :, ,$(1))) \
+	  --name $(call name_of,$(1)) --scale $(PEER_SCALE) --budgets $(PEER_BUDGETS) --reference $$< \
+	  --out $(PEER_RUNS)/$(call name_of,$(1)) $(PIPELINE)
+endef
+$(foreach s,$(PEER_SCENES),$(eval $(call peer_rules,$(s))))

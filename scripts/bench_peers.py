@@ -1,0 +1,214 @@
+#!/usr/bin/python3
+"""A peer in the benchmark (issue 25): iris guided, iris unguided and Blender Cycles side by side at a
+ladder of wall-clock budgets, each against one reference per scene. Driven by `make -f pipelines/bench.mk
+peers`; run with Debian's /usr/bin/python3 (its python3-matplotlib draws the plots).
+
+  reference  an iris unguided render of REF seconds (time-bounded, since the shared machine's sample
+          rate varies by several times), with --variance so that compare-images can state the
+          reference's own share of every relMSE, and a manifest
+  runs    one scene: export-scene's JSON for Cycles, the guided pipeline's preprocessing once, then per
+          budget iris unguided (nee+bsdf), iris guided (auto, preprocessing counted inside its budget) and
+          Cycles (scripts/cycles_render.py), interleaved in that order, all compared with the reference
+  report  docs/benchmarks/peers.md with a table and a log-log plot per scene
+
+Time: every renderer's total is the wall seconds of its whole process as this script measures it around
+the command (iris: plus the preprocessing stages' own seconds for the guided render; Cycles: Blender's
+start-up, scene construction, Cycles' sync, sampling and the EXR write). Cycles gets the budget minus the
+overheads (start-up + construction + sync + write) a 1-sample calibration run measured, as its
+`time_limit`; its measured total is what counts. Efficiency = 1 / (relMSE x total seconds).
+"""
+import argparse
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bench  # noqa: E402  (the benchmark's helpers: timed runs, compare-images, preprocessing)
+
+BLENDER = os.environ.get("BLENDER", "blender")
+
+
+def cycles(scene_json, out, seconds=None, spp=None, seed=7, threads=2):
+    """One Cycles render; returns its figures (wall seconds of the process and of each phase)."""
+    cmd = [BLENDER, "-b", "--factory-startup", "-t", str(threads), "-P", "scripts/cycles_render.py", "--",
+           scene_json, out, "--threads", str(threads), "--seed", str(seed)]
+    cmd += ["--time", "%.3f" % seconds] if seconds is not None else ["--spp", str(spp)]
+    env = dict(os.environ, CYCLES_T0="%.6f" % time.time())
+    wall, stdout, stderr = bench.run(cmd, env=env)
+    line = [l for l in stdout.splitlines() if l.startswith("cycles: ")]
+    if not line or not os.path.exists(out):
+        sys.exit("bench_peers: Cycles wrote no result for %s\n%s\n%s" % (out, stdout[-2000:], stderr[-2000:]))
+    x = json.loads(line[-1][len("cycles: "):])
+    # Blender's progress lines end with "Sample N/M" (background mode prints them to stdout).
+    samples = re.findall(r"Sample (\d+)/\d+", stdout)
+    x["spp"] = int(samples[-1]) if samples else None
+    meta = bench.metadata(out)
+
+    def secs(v):  # Blender writes "MM:SS.ss" or "HH:MM:SS.ss"
+        parts = [float(p) for p in v.split(":")]
+        return sum(p * 60 ** i for i, p in enumerate(reversed(parts)))
+    x["cycles_sync"] = secs(meta.get("cycles.ViewLayer.synchronization_time", "0"))
+    x["cycles_sampling"] = secs(meta.get("cycles.ViewLayer.render_time", "0"))
+    x["wall"] = wall
+    return x
+
+
+def cmd_reference(a):
+    w, h = bench.scaled_resolution(a.scene, a.scale)
+    os.makedirs(os.path.dirname(a.output) or ".", exist_ok=True)
+    cmd = [bench.BIN + "/render", a.scene, "-o", a.output, "--mode", "nee+bsdf", "--time", "%g" % a.seconds,
+           "--resolution", "%dx%d" % (w, h), "--seed", "1000003", "--variance", "-q"]
+    seconds, _, _ = bench.run(cmd)
+    meta = bench.metadata(a.output)
+    with open(a.output + ".manifest.tmp", "w") as f:
+        f.write("scene %s\nresolution %dx%d\nspp %s\nseconds %.1f\nversion %s\ncommand %s\n"
+                % (a.scene, w, h, meta.get("iris:spp", "?"), seconds, meta.get("iris:version", "?"), " ".join(cmd)))
+    os.replace(a.output + ".manifest.tmp", a.output + ".manifest")
+    print("reference %s: %s spp, %.0f s" % (a.output, meta.get("iris:spp"), seconds))
+
+
+def cmd_runs(a):
+    os.makedirs(a.out, exist_ok=True)
+    w, h = bench.scaled_resolution(a.scene, a.scale)
+    res = "%dx%d" % (w, h)
+    scene_json = os.path.join(a.out, "scene.json")
+    bench.run([bench.BIN + "/export-scene", a.scene, "-o", scene_json, "--resolution", res])
+    budgets = [float(b) for b in a.budgets.split(",")]
+    prep, parts = bench.preprocess(a.scene, a.out, a.pipeline_vars)
+    atlas = os.path.join(a.out, "atlas.h5")
+    cal = cycles(scene_json, os.path.join(a.out, "cycles-calibration.exr"), spp=1)
+    overhead = cal["wall"] - cal["cycles_sampling"]
+    print("  cycles calibration (1 spp): %.1f s wall, of it start-up %.1f, construction %.1f, sync %.2f, write %.2f"
+          % (cal["wall"], cal["startup"], cal["build"], cal["cycles_sync"], cal["write"]))
+    rows = []
+    for b in budgets:
+        for r in ("nee+bsdf", "auto", "cycles"):
+            out = os.path.join(a.out, "%s-%gs.exr" % (r.replace("+", "_"), b))
+            if r == "cycles":
+                x = cycles(scene_json, out, seconds=max(1.0, b - overhead))
+                x.update(render_wall=x["wall"], prep=0.0, total=x["wall"])
+                c = bench.compare(out, a.reference)
+                x.update(relmse=c["relmse"], relmse_trimmed=c["relmse_trimmed"], mean_test=c["mean_test"],
+                         mean_ref=c["mean_ref"], relmse_reference_noise=c.get("relmse_reference_noise"), image=out)
+            else:
+                m_prep = prep if r == "auto" else 0.0
+                x = bench.render_and_compare(a.scene, out, res, b - m_prep, a.reference,
+                                             ["--atlas", atlas, "--mode", r] if r == "auto" else [])
+                x.update(prep=m_prep, total=x["render_wall"] + m_prep)
+                c = bench.compare(out, a.reference)
+                x.update(mean_test=c["mean_test"], mean_ref=c["mean_ref"])
+            x.update(renderer=r, budget=b)
+            rows.append(x)
+            print("  %-9s %5.1f s: total %.1f s, relMSE %.4g, efficiency %.3g (%s spp)"
+                  % (r, b, x["total"], x["relmse"], 1.0 / (x["relmse"] * x["total"]), x.get("spp")))
+    info = dict(scene=a.scene, name=a.name, resolution=res, reference=a.reference,
+                reference_manifest=bench.read_manifest(a.reference + ".manifest"), prep=prep, prep_parts=parts,
+                cycles_calibration=cal, cycles_overhead=overhead, rows=rows, date=time.strftime("%Y-%m-%d %H:%M UTC",
+                                                                                             time.gmtime()),
+                pipeline_vars=a.pipeline_vars)
+    with open(os.path.join(a.out, "results.json.tmp"), "w") as f:
+        json.dump(info, f, indent=1)
+    os.replace(os.path.join(a.out, "results.json.tmp"), os.path.join(a.out, "results.json"))
+
+
+LABEL = {"nee+bsdf": "iris unguided (nee+bsdf)", "auto": "iris guided (auto)", "cycles": "Cycles 3.4.1 (path)"}
+
+
+def cmd_report(a):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    os.makedirs(a.assets, exist_ok=True)
+    L = ["# Peers: iris against Blender Cycles (issue 25)", "",
+         "Generated by `make -f pipelines/bench.mk peers` (scripts/bench_peers.py, scripts/cycles_render.py); "
+         "do not edit by hand. %s." % (" ".join(a.given) if a.given else "Default settings"), "",
+         "Each budget renders iris unguided (`--mode nee+bsdf`), iris guided (pipelines/guided.mk's defaults, "
+         "`--mode auto`, its preprocessing inside the budget) and Cycles (CPU path tracer, 2 threads, no "
+         "denoising, no adaptive sampling, no clamping, light threshold 0, caustics on, filter glossy 0, "
+         "bounces 1024 = iris's unlimited depth, Gaussian filter of width 6 px = Mitsuba's sigma 0.5 px) one "
+         "after the other. Total = wall seconds of the whole process (Blender's start-up and scene construction "
+         "included for Cycles, the pipeline's stages for guided iris). Efficiency = 1 / (relMSE x total); "
+         "ratios are to Cycles at the same budget. Debian's Cycles 3.4.1 is built without path guiding "
+         "(`_cycles.with_path_guiding` is False; Cycles' guiding needs Intel Open PGL), so it is a plain "
+         "path tracer with next-event estimation and MIS, on Embree. The machine is shared with "
+         "other jobs: timings are noisy, the renderers are interleaved per budget.", ""]
+    for name in a.names:
+        with open(os.path.join(a.runs, name, "results.json")) as f:
+            r = json.load(f)
+        man = r["reference_manifest"]
+        cal = r["cycles_calibration"]
+        L += ["## %s (%s, %s)" % (name, r["scene"], r["resolution"]), "",
+              "Reference: iris unguided, %s spp in %s s (`%s`); its own noise is the relMSE share listed as ref noise. Guided preprocessing %.1f s (%s). Cycles' "
+              "fixed costs (1-sample run): start-up %.1f s, scene construction %.1f s, sync %.2f s, write %.2f s; "
+              "%.1f s of every Cycles total is not sampling."
+              % (man.get("spp"), man.get("seconds"), man.get("command", "?"), r["prep"],
+                 ", ".join("%s %.1f s" % kv for kv in r["prep_parts"].items()), cal["startup"], cal["build"],
+                 cal["cycles_sync"], cal["write"], r["cycles_overhead"]), "",
+              "| budget s | renderer | total s | sampling s | spp | relMSE | ref noise | efficiency | vs Cycles | mean R,G,B / ref |",
+              "|---:|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+        by = {(x["renderer"], x["budget"]): x for x in r["rows"]}
+        budgets = sorted({x["budget"] for x in r["rows"]})
+        for b in budgets:
+            cy = by[("cycles", b)]
+            ecy = 1.0 / (cy["relmse"] * cy["total"])
+            for rn in ("nee+bsdf", "auto", "cycles"):
+                x = by[(rn, b)]
+                e = 1.0 / (x["relmse"] * x["total"])
+                samp = x.get("cycles_sampling") if rn == "cycles" else x.get("sampling_seconds")
+                ratio = " / ".join("%.3f" % (t / rr) for t, rr in zip(x["mean_test"], x["mean_ref"]))
+                nz = x.get("relmse_reference_noise")
+                L.append("| %g | %s | %.1f | %.1f | %s | %.4g | %s | %.4g | %.2fx | %s |"
+                         % (b, LABEL[rn], x["total"], samp or 0, x.get("spp"), x["relmse"],
+                            "%.2g" % nz if nz is not None else "-", e, e / ecy, ratio))
+        L.append("")
+        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+        for rn in ("nee+bsdf", "auto", "cycles"):
+            pts = sorted((by[(rn, b)]["total"], by[(rn, b)]["relmse"]) for b in budgets)
+            ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=LABEL[rn])
+        ax.set_xlabel("total wall seconds")
+        ax.set_ylabel("relMSE against the reference")
+        ax.set_title(name)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        plot = os.path.join(a.assets, name + ".svg")
+        fig.savefig(plot, metadata={"Date": None})
+        plt.close(fig)
+        L += ["![%s: relMSE against total seconds](%s)" % (name, os.path.relpath(plot, os.path.dirname(a.output))),
+              ""]
+    with open(a.output + ".tmp", "w") as f:
+        f.write("\n".join(L))
+    os.replace(a.output + ".tmp", a.output)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="cmd", required=True)
+    r = sub.add_parser("runs")
+    r.add_argument("--scene", required=True)
+    r.add_argument("--name", required=True)
+    r.add_argument("--scale", type=float, default=0.5)
+    r.add_argument("--budgets", default="15,30,60")
+    r.add_argument("--reference", required=True)
+    r.add_argument("--out", required=True)
+    r.add_argument("pipeline_vars", nargs="*", help="settings for pipelines/guided.mk (NAME=value)")
+    f = sub.add_parser("reference")
+    f.add_argument("--scene", required=True)
+    f.add_argument("--scale", type=float, default=0.5)
+    f.add_argument("--seconds", type=float, required=True)
+    f.add_argument("-o", "--output", required=True)
+    q = sub.add_parser("report")
+    q.add_argument("--runs", required=True)
+    q.add_argument("--names", nargs="+", required=True)
+    q.add_argument("-o", "--output", required=True)
+    q.add_argument("--assets", required=True)
+    q.add_argument("given", nargs="*")
+    a = p.parse_args()
+    {"reference": cmd_reference, "runs": cmd_runs, "report": cmd_report}[a.cmd](a)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,290 @@
+"""Renders an iris scene with Blender Cycles' path tracer: the peer in the benchmark (issue 25).
+
+  blender -b --factory-startup -P scripts/cycles_render.py -- scene.json out.exr \
+      (--time SECONDS | --spp N) [--threads 2] [--seed 7] [--stats stats.json]
+
+scene.json is `export-scene`'s output: the scene as iris loaded it (world-space triangles after every
+toWorld, analytic spheres, the RGB values iris derived from the file's spectra, the camera's prepared
+basis), so that Cycles renders the same numbers and nothing here re-reads the Mitsuba XML.
+
+Translation (what Cycles gets for each iris object):
+  diffuse        Diffuse BSDF (Lambert, roughness 0), colour = reflectance
+  dielectric     Glass BSDF, sharp, IOR = intIOR/extIOR, colour = 1 (iris's default specular reflectance
+                 and transmittance; anything else is refused)
+  conductor      refused (Cycles' sharp Glossy has no complex-IOR Fresnel)
+  area emitter   Emission (strength 1, colour = radiance in W/(m^2 sr)) added to the surface's BSDF, on
+                 the front side only (Mitsuba's area lights are one-sided; Cycles' emission is two-sided,
+                 so a Backfacing mix switches it off behind)
+  sphere         a point-cloud point of that radius (Cycles intersects points as exact spheres)
+  camera         the same origin and basis, horizontal field of view 2 atan(tan_half_x)
+  film filter    Gaussian: Cycles' Gaussian of width W has standard deviation W/12 pixels and is cut at
+                 +-W/2 (kernel exp(-2 (6v/W)^2)), so W = 12 sigma (6 px for Mitsuba's sigma 0.5); the cut
+                 at 3 px instead of iris's 2 px (4 sigma) changes weights by < 4e-4. Box: width 1.
+  depth          Mitsuba maxDepth counts path edges from the camera (2 = direct light); Cycles' bounce
+                 limits count bounces after the first hit (0 = direct light): bounces = maxDepth - 2, and
+                 Cycles' maximum 1024 for unlimited (-1).
+Sampling: CPU, --threads threads, no denoising, no adaptive sampling, no clamping, no light-sampling
+threshold (its default 0.01 drops dim lights' samples), reflective and refractive caustics on, glossy
+filter 0, a fixed seed. Time budget: Cycles' `time_limit` (seconds of sampling) with the sample count at
+its maximum, or a fixed --spp.
+
+Prints one line `cycles: {...}` of JSON with the seconds of each phase (Blender start-up until this
+script runs, scene construction, render = sync + sampling, write) and the samples Cycles reported; the
+same JSON is written to --stats when given.
+"""
+import json
+import math
+import os
+import re
+import sys
+import time
+
+import bpy
+
+T_SCRIPT = time.time()
+
+
+def fail(msg):
+    print("cycles_render: error: " + msg, file=sys.stderr)
+    sys.exit(1)
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    a = dict(time=None, spp=None, threads=2, seed=7, stats=None)
+    pos = []
+    i = 0
+    while i < len(argv):
+        k = argv[i]
+        if k in ("--time", "--spp", "--threads", "--seed", "--stats"):
+            if i + 1 >= len(argv):
+                fail(k + " wants a value")
+            v = argv[i + 1]
+            try:
+                a[k[2:]] = v if k == "--stats" else (float(v) if k == "--time" else int(v))
+            except ValueError:
+                fail("%s wants a number, got %r" % (k, v))
+            i += 2
+        else:
+            pos.append(k)
+            i += 1
+    if len(pos) != 2:
+        fail("usage: -- scene.json out.exr (--time S | --spp N) [--threads T] [--seed S] [--stats F]")
+    if (a["time"] is None) == (a["spp"] is None):
+        fail("give exactly one of --time and --spp")
+    if a["time"] is not None and not a["time"] > 0:
+        fail("--time must be > 0")
+    if a["spp"] is not None and a["spp"] < 1:
+        fail("--spp must be >= 1")
+    a["scene"], a["output"] = pos
+    if not a["output"].endswith(".exr"):
+        fail(a["output"] + ": the output must be an .exr")
+    return a
+
+
+def material(name, bsdf, radiance):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    nt = m.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    out.target = "CYCLES"
+    t = bsdf["type"]
+    if t == "diffuse":
+        s = nt.nodes.new("ShaderNodeBsdfDiffuse")
+        s.inputs["Color"].default_value = list(bsdf["diffuse"]) + [1.0]
+        s.inputs["Roughness"].default_value = 0.0
+    elif t == "dielectric":
+        if any(abs(c - 1.0) > 1e-6 for c in bsdf["specular"] + bsdf["transmittance"]):
+            fail("%s: a dielectric with specular reflectance or transmittance other than 1 (Cycles' Glass tints "
+                 "both alike)" % name)
+        s = nt.nodes.new("ShaderNodeBsdfGlass")
+        s.distribution = "SHARP"
+        s.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+        s.inputs["IOR"].default_value = bsdf["ior"]
+    else:
+        fail("%s: BSDF type %s has no Cycles equivalent set up" % (name, t))
+    if bsdf.get("two_sided") and t != "diffuse":
+        fail(name + ": a two-sided non-diffuse BSDF")
+    shader = s
+    if radiance is not None:
+        e = nt.nodes.new("ShaderNodeEmission")
+        e.inputs["Color"].default_value = list(radiance) + [1.0]
+        e.inputs["Strength"].default_value = 1.0
+        add = nt.nodes.new("ShaderNodeAddShader")
+        nt.links.new(s.outputs[0], add.inputs[0])
+        nt.links.new(e.outputs[0], add.inputs[1])
+        # Front side only: Backfacing = 1 selects the BSDF alone.
+        geo = nt.nodes.new("ShaderNodeNewGeometry")
+        mix = nt.nodes.new("ShaderNodeMixShader")
+        nt.links.new(geo.outputs["Backfacing"], mix.inputs["Fac"])
+        nt.links.new(add.outputs[0], mix.inputs[1])
+        nt.links.new(s.outputs[0], mix.inputs[2])
+        shader = mix
+    nt.links.new(shader.outputs[0], out.inputs["Surface"])
+    return m
+
+
+def sphere_object(name, center, radius, mat):
+    """One mesh vertex turned into a point of RADIUS by geometry nodes: Cycles renders points as spheres."""
+    me = bpy.data.meshes.new(name)
+    me.from_pydata([(0.0, 0.0, 0.0)], [], [])
+    ob = bpy.data.objects.new(name, me)
+    ob.location = center
+    ng = bpy.data.node_groups.new(name + "_points", "GeometryNodeTree")
+    ng.inputs.new("NodeSocketGeometry", "Geometry")
+    ng.outputs.new("NodeSocketGeometry", "Geometry")
+    gi = ng.nodes.new("NodeGroupInput")
+    go = ng.nodes.new("NodeGroupOutput")
+    mp = ng.nodes.new("GeometryNodeMeshToPoints")
+    mp.inputs["Radius"].default_value = radius
+    sm = ng.nodes.new("GeometryNodeSetMaterial")
+    sm.inputs["Material"].default_value = mat
+    ng.links.new(gi.outputs[0], mp.inputs["Mesh"])
+    ng.links.new(mp.outputs["Points"], sm.inputs["Geometry"])
+    ng.links.new(sm.outputs["Geometry"], go.inputs[0])
+    mod = ob.modifiers.new("points", "NODES")
+    mod.node_group = ng
+    return ob
+
+
+def main():
+    a = parse_args()
+    try:
+        with open(a["scene"]) as f:
+            sc = json.load(f)
+    except (OSError, ValueError) as e:
+        fail("%s: %s" % (a["scene"], e))
+    t_build = time.time()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    col = scene.collection
+
+    radiance = [l["radiance"] for l in sc["lights"]]
+    mats = {}
+
+    def mat_for(bsdf, light):
+        key = (bsdf, light)
+        if key not in mats:
+            mats[key] = material("bsdf%d_light%d" % key, sc["bsdfs"][bsdf], radiance[light] if light >= 0 else None)
+        return mats[key]
+
+    for i, m in enumerate(sc["meshes"]):
+        me = bpy.data.meshes.new("mesh%d" % i)
+        idx = m["indices"]
+        faces = [(idx[k], idx[k + 1], idx[k + 2]) for k in range(0, len(idx), 3)]
+        if m["flip_normals"]:
+            faces = [(f[0], f[2], f[1]) for f in faces]
+        me.from_pydata([tuple(p) for p in m["positions"]], [], faces)
+        if m["normals"]:
+            if m["flip_normals"]:
+                fail("mesh %d: flipped normals with shading normals" % i)
+            me.use_auto_smooth = True
+            me.polygons.foreach_set("use_smooth", [True] * len(faces))
+            me.normals_split_custom_set_from_vertices([tuple(n) for n in m["normals"]])
+        me.materials.append(mat_for(m["bsdf"], m["light"]))
+        col.objects.link(bpy.data.objects.new("mesh%d" % i, me))
+    for i, s in enumerate(sc["spheres"]):
+        col.objects.link(sphere_object("sphere%d" % i, s["center"], s["radius"], mat_for(s["bsdf"], s["light"])))
+
+    # Camera: Blender's camera looks along its local -Z with +Y up and +X right.
+    c = sc["camera"]
+    from mathutils import Matrix, Vector
+    r, u, fw = Vector(c["right"]), Vector(c["up"]), Vector(c["forward"])
+    rot = Matrix((r, u, -fw)).transposed()
+    if rot.determinant() < 0:
+        fail("the camera's right, up, -forward basis is left-handed (det %.3f)" % rot.determinant())
+    cam = bpy.data.cameras.new("camera")
+    cam.type = "PERSP"
+    cam.sensor_fit = "HORIZONTAL"
+    cam.lens_unit = "FOV"
+    cam.angle = 2.0 * math.atan(c["tan_half_x"])
+    cam.clip_start = c["near"]
+    cam.clip_end = c["far"]
+    cob = bpy.data.objects.new("camera", cam)
+    cob.matrix_world = Matrix.Translation(Vector(c["origin"])) @ rot.to_4x4()
+    col.objects.link(cob)
+    scene.camera = cob
+    want_tan_y = c["tan_half_x"] * sc["height"] / sc["width"]
+    if abs(want_tan_y - c["tan_half_y"]) > 1e-5 * c["tan_half_y"]:
+        fail("non-square pixels (tan_half_y %g, expected %g)" % (c["tan_half_y"], want_tan_y))
+
+    world = bpy.data.worlds.new("black")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    scene.world = world
+
+    rd = scene.render
+    rd.engine = "CYCLES"
+    rd.resolution_x, rd.resolution_y, rd.resolution_percentage = sc["width"], sc["height"], 100
+    rd.threads_mode = "FIXED"
+    rd.threads = a["threads"]
+    rd.use_persistent_data = False
+    cy = scene.cycles
+    cy.device = "CPU"
+    cy.feature_set = "SUPPORTED"
+    cy.use_denoising = False
+    cy.use_preview_denoising = False
+    cy.use_adaptive_sampling = False
+    cy.sample_clamp_direct = 0.0
+    cy.sample_clamp_indirect = 0.0
+    cy.light_sampling_threshold = 0.0
+    cy.caustics_reflective = True
+    cy.caustics_refractive = True
+    cy.blur_glossy = 0.0
+    cy.seed = a["seed"]
+    cy.use_animated_seed = False
+    bounces = 1024 if sc["max_depth"] < 0 else max(0, sc["max_depth"] - 2)
+    for k in ("max_bounces", "diffuse_bounces", "glossy_bounces", "transmission_bounces", "volume_bounces",
+              "transparent_max_bounces"):
+        setattr(cy, k, bounces)
+    f = sc["filter"]
+    if f["type"] == "gaussian":
+        cy.pixel_filter_type = "GAUSSIAN"
+        cy.filter_width = 12.0 * f["stddev"]
+    else:
+        cy.pixel_filter_type = "BOX"
+        cy.filter_width = 1.0
+    if a["time"] is not None:
+        cy.samples = 16777216  # Cycles' maximum: the time limit ends the render
+        cy.time_limit = a["time"]
+    else:
+        cy.samples = a["spp"]
+        cy.time_limit = 0.0
+    cy.use_auto_tile = False
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    scene.display_settings.display_device = "sRGB"
+    im = rd.image_settings
+    im.file_format = "OPEN_EXR"
+    im.color_mode = "RGB"
+    im.color_depth = "32"
+    im.exr_codec = "ZIP"
+    rd.use_file_extension = False
+    rd.filepath = a["output"]
+
+    t_render = time.time()
+    bpy.ops.render.render(write_still=False)
+    t_write = time.time()
+    img = bpy.data.images["Render Result"]
+    tmp = a["output"] + ".tmp.exr"
+    img.save_render(tmp, scene=scene)
+    os.replace(tmp, a["output"])
+    t_end = time.time()
+    # Cycles records its own sync and sampling times and the samples taken in the EXR's metadata
+    # (cycles.ViewLayer.synchronization_time / render_time / samples).
+    import _cycles
+    out = dict(blender=bpy.app.version_string, path_guiding_built=bool(_cycles.with_path_guiding),
+               embree=bool(_cycles.with_embree), startup=T_SCRIPT - float(os.environ.get("CYCLES_T0", T_SCRIPT)),
+               build=t_render - t_build, render=t_write - t_render, write=t_end - t_write,
+               bounces=bounces, filter=cy.pixel_filter_type, filter_width=cy.filter_width)
+    print("cycles: " + json.dumps(out))
+    if a["stats"]:
+        with open(a["stats"], "w") as f:
+            json.dump(out, f)
+
+
+main()
