@@ -95,6 +95,10 @@ def cmd_runs(a):
                          mean_ref=c["mean_ref"], relmse_reference_noise=c.get("relmse_reference_noise"), image=out)
             else:
                 m_prep = prep if r == "auto" else 0.0
+                if b - m_prep <= 0.5:
+                    rows.append(dict(renderer=r, budget=b, skipped="preprocessing %.1f s exceeds the budget" % prep))
+                    print("  %-9s %5.1f s: skipped (preprocessing %.1f s)" % (r, b, prep))
+                    continue
                 x = bench.render_and_compare(a.scene, out, res, b - m_prep, a.reference,
                                              ["--atlas", atlas, "--mode", r] if r == "auto" else [])
                 x.update(prep=m_prep, total=x["render_wall"] + m_prep)
@@ -147,26 +151,35 @@ def cmd_report(a):
               % (man.get("spp"), man.get("seconds"), man.get("command", "?"), r["prep"],
                  ", ".join("%s %.1f s" % kv for kv in r["prep_parts"].items()), cal["startup"], cal["build"],
                  cal["cycles_sync"], cal["write"], r["cycles_overhead"]), "",
-              "| budget s | renderer | total s | sampling s | spp | relMSE | ref noise | efficiency | vs Cycles | mean R,G,B / ref |",
-              "|---:|---|---:|---:|---:|---:|---:|---:|---:|---|"]
+              "| budget s | renderer | total s | sampling s | spp | relMSE | ref noise | efficiency | vs Cycles | vs Cycles, ref noise removed | mean R,G,B / ref |",
+              "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
         by = {(x["renderer"], x["budget"]): x for x in r["rows"]}
         budgets = sorted({x["budget"] for x in r["rows"]})
         for b in budgets:
             cy = by[("cycles", b)]
             ecy = 1.0 / (cy["relmse"] * cy["total"])
+
+            def clean(x):  # efficiency with the reference's own noise taken out of the relMSE
+                nz = x.get("relmse_reference_noise")
+                return 1.0 / ((x["relmse"] - nz) * x["total"]) if nz is not None and x["relmse"] > nz else None
             for rn in ("nee+bsdf", "auto", "cycles"):
                 x = by[(rn, b)]
+                if "skipped" in x:
+                    L.append("| %g | %s | - | - | - | - | - | - | - | - | %s |" % (b, LABEL[rn], x["skipped"]))
+                    continue
                 e = 1.0 / (x["relmse"] * x["total"])
                 samp = x.get("cycles_sampling") if rn == "cycles" else x.get("sampling_seconds")
                 ratio = " / ".join("%.3f" % (t / rr) for t, rr in zip(x["mean_test"], x["mean_ref"]))
                 nz = x.get("relmse_reference_noise")
-                L.append("| %g | %s | %.1f | %.1f | %s | %.4g | %s | %.4g | %.2fx | %s |"
+                ec, ecc = clean(x), clean(cy)
+                L.append("| %g | %s | %.1f | %.1f | %s | %.4g | %s | %.4g | %.2fx | %s | %s |"
                          % (b, LABEL[rn], x["total"], samp or 0, x.get("spp"), x["relmse"],
-                            "%.2g" % nz if nz is not None else "-", e, e / ecy, ratio))
+                            "%.2g" % nz if nz is not None else "-", e, e / ecy,
+                            "%.2fx" % (ec / ecc) if ec and ecc else "-", ratio))
         L.append("")
         fig, ax = plt.subplots(figsize=(5.5, 3.8))
         for rn in ("nee+bsdf", "auto", "cycles"):
-            pts = sorted((by[(rn, b)]["total"], by[(rn, b)]["relmse"]) for b in budgets)
+            pts = sorted((by[(rn, b)]["total"], by[(rn, b)]["relmse"]) for b in budgets if "skipped" not in by[(rn, b)])
             ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=LABEL[rn])
         ax.set_xlabel("total wall seconds")
         ax.set_ylabel("relMSE against the reference")
