@@ -282,7 +282,7 @@ private:
         std::string s = src.path + ":" + std::to_string(line) + ": " + msg;
         if (options_.warnings)
             options_.warnings->push_back(s);
-        else
+        else if (!options_.quiet_warnings)
             std::cerr << "warning: " << s << "\n";
     }
 

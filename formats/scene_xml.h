@@ -23,8 +23,11 @@ struct SceneError : std::runtime_error {
 struct SceneLoadOptions {
     // Values for $name parameters (<default name=... value=...> gives the fallback).
     std::map<std::string, std::string> parameters;
-    // Receives one line per accepted-but-ignored parameter; null = print to stderr.
+    // Receives one line per accepted-but-ignored parameter; null = print to stderr (unless quiet_warnings).
     std::vector<std::string>* warnings = nullptr;
+    // With warnings null: print nothing. The tools' --no-scene-warnings: in a pipeline, the stages after
+    // the first read the same scene, and repeating its warnings once per stage only buries them.
+    bool quiet_warnings = false;
 };
 
 // Loads the scene, builds lights and the Embree BVH (Scene::finalize). Throws SceneError.

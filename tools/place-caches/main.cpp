@@ -31,6 +31,10 @@ int main(int argc, char** argv) {
                    "Place no caches (the render then stays unguided) when less than this fraction of the photon "
                    "power arrives through specular chains (default 0: always place them)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
+    bool no_scene_warnings = false;
+    app.add_flag("--no-scene-warnings", no_scene_warnings,
+                 "Do not print the scene's warnings (ignored parameters); pipelines/guided.mk passes it to the "
+                 "stages after trace-photons, which prints them once");
     if (int rc = iris::parse_command_line(app, argc, argv, "place-caches"); rc >= 0) return rc;
     try {
         if (!resolution.empty()) iris::parse_resolution(resolution, &opt.width, &opt.height);
@@ -42,6 +46,7 @@ int main(int argc, char** argv) {
         iris::check_output_path(output);
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
+        lo.quiet_warnings = no_scene_warnings;
         iris::Scene scene = iris::load_scene(scene_path, lo);
         iris::PlacementStats stats;
         // Skipping what the scene does not need: without light through specular chains, every path the

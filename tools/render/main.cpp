@@ -79,6 +79,10 @@ int main(int argc, char** argv) {
                    "store the film's sums so that `merge-images` adds the parts into the image of one run; needs a "
                    "fixed --spp and --mode (not --time, not --mode auto or --caustics auto)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
+    bool no_scene_warnings = false;
+    app.add_flag("--no-scene-warnings", no_scene_warnings,
+                 "Do not print the scene's warnings (ignored parameters); pipelines/guided.mk passes it to the "
+                 "stages after trace-photons, which prints them once");
     if (int rc = iris::parse_command_line(app, argc, argv, "render"); rc >= 0) return rc;
     try {
         if (opt.spp < 0) throw std::runtime_error("--spp must be positive, got " + std::to_string(opt.spp));
@@ -131,6 +135,7 @@ int main(int argc, char** argv) {
         tbb::global_control gc(tbb::global_control::max_allowed_parallelism, threads);
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
+        lo.quiet_warnings = no_scene_warnings;
         opt.command_line = iris::join_args(argc, argv);
         iris::Scene scene = iris::load_scene(scene_path, lo);
         std::unique_ptr<iris::Guide> guide;

@@ -38,6 +38,10 @@ int main(int argc, char** argv) {
                    "A:B -- trace only paths A..B-1 of the --paths in all (flux normalised by the total), seeded as in "
                    "one run; `merge-photons` joins the parts into the map of one run");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
+    bool no_scene_warnings = false;
+    app.add_flag("--no-scene-warnings", no_scene_warnings,
+                 "Do not print the scene's warnings (ignored parameters); pipelines/guided.mk passes it to the "
+                 "stages after trace-photons, which prints them once");
     if (int rc = iris::parse_command_line(app, argc, argv, "trace-photons"); rc >= 0) return rc;
     try {
         if (paths <= 0) throw std::runtime_error("--paths must be positive, got " + std::to_string(paths));
@@ -60,6 +64,7 @@ int main(int argc, char** argv) {
         iris::check_output_path(output);
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
+        lo.quiet_warnings = no_scene_warnings;
         iris::Scene scene = iris::load_scene(scene_path, lo);
         iris::PhotonStats stats;
         // A scene without caustics skips guiding (place-caches); tracing its photons would only cost time.

@@ -1,0 +1,66 @@
+// Scene warnings (parameters and elements iris accepts but ignores) are printed once per pipeline run:
+// trace-photons prints them, and pipelines/guided.mk passes --no-scene-warnings to the stages after it,
+// which read the same scene.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "support/run_tool.h"
+
+namespace {
+
+using iris::test::run_command;
+using iris::test::TempDir;
+using iris::test::tool;
+
+// The tiny caustic box with two elements that each draw one warning: a bsdf no shape references, and a
+// top-level bsdf without an id.
+std::string write_scene(const TempDir& dir) {
+    std::ifstream in(std::string(IRIS_SOURCE_DIR) + "/tests/data/guiding/caustic_box.xml");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    std::string xml = ss.str();
+    const std::string tag = "<scene version=\"0.5.0\">";
+    const size_t at = xml.find(tag);
+    EXPECT_NE(at, std::string::npos);
+    xml.insert(at + tag.size(), "\n  <bsdf type=\"diffuse\" id=\"never_used\"/>\n  <bsdf type=\"diffuse\"/>\n");
+    const std::string path = dir.file("scene.xml");
+    std::ofstream(path) << xml;
+    return path;
+}
+
+int count_lines_starting(const std::string& text, const std::string& prefix) {
+    int n = 0;
+    std::istringstream s(text);
+    for (std::string line; std::getline(s, line);) n += line.rfind(prefix, 0) == 0 ? 1 : 0;
+    return n;
+}
+
+TEST(SceneWarnings, ToolPrintsThemUnlessToldNot) {
+    TempDir dir;
+    const std::string scene = write_scene(dir);
+    const auto loud = run_command(tool("render") + " " + scene + " -o " + dir.file("a.exr") + " --spp 1 -q");
+    ASSERT_EQ(loud.status, 0) << loud.output;
+    EXPECT_EQ(count_lines_starting(loud.output, "warning: "), 2) << loud.output;
+    const auto quiet = run_command(tool("render") + " " + scene + " -o " + dir.file("b.exr") +
+                                   " --spp 1 -q --no-scene-warnings");
+    ASSERT_EQ(quiet.status, 0) << quiet.output;
+    EXPECT_EQ(count_lines_starting(quiet.output, "warning: "), 0) << quiet.output;
+}
+
+TEST(SceneWarnings, FullGuidedPipelinePrintsEachOnce) {
+    TempDir dir;
+    const std::string scene = write_scene(dir);
+    // Every stage of `compare`: photons, caches, atlas, guided and unguided renders, the reference.
+    const auto r = run_command("make --no-print-directory -f " + std::string(IRIS_SOURCE_DIR) +
+                               "/pipelines/guided.mk BIN=" + std::string(IRIS_BIN_DIR) + " SCENE=" + scene +
+                               " OUT=" + dir.file("out") + " REF_DIR=" + dir.file("ref") +
+                               " PATHS=2000 COUNT=64 K=64 SPP=2 REF_SPP=4 MIN_CAUSTIC=0 THREADS=2 compare");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_EQ(count_lines_starting(r.output, "warning: "), 2) << r.output;
+    EXPECT_NE(r.output.find("never_used"), std::string::npos) << r.output;
+}
+
+}  // namespace
