@@ -35,6 +35,8 @@
 #include "formats/exr.h"
 #include "formats/image_file.h"
 #include "formats/obj.h"
+#include "formats/ply.h"
+#include "formats/serialized.h"
 #include "libcommon/spectrum.h"
 
 namespace iris {
@@ -124,6 +126,16 @@ std::string lower(std::string s) {
 bool read_file(const fs::path& p, std::string* out) {
     std::ifstream in(p, std::ios::binary);
     if (!in) return false;
+    // One read into a buffer of the file's size: mesh files reach hundreds of MB, and a
+    // stringstream would copy them twice.
+    std::error_code ec;
+    const auto size = fs::file_size(p, ec);
+    if (!ec && fs::is_regular_file(p, ec)) {
+        out->resize(size_t(size));
+        in.read(out->data(), std::streamsize(size));
+        if (size_t(in.gcount()) != size_t(size)) return false;
+        return true;
+    }
     std::ostringstream ss;
     ss << in.rdbuf();
     if (in.bad()) return false;
@@ -1089,6 +1101,8 @@ private:
     // ---- shapes ---------------------------------------------------------------------------------
     void shape(const Source& src, pugi::xml_node n) {
         Plugin p = read_plugin(src, n);
+        if (p.type == "shapegroup") return shape_group(p);
+        if (p.type == "instance") return instance(p);
         std::optional<uint32_t> bsdf;
         pugi::xml_node emitter_node;
         for (pugi::xml_node c : p.children) {
@@ -1177,6 +1191,7 @@ private:
                 std::vector<Vec3> pos = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
                 std::vector<uint32_t> idx = {0, 1, 2, 0, 2, 3};
                 build_mesh(src, p.line, pos, {}, idx, to_world, &mesh);
+                mesh.uvs = {Vec2{0, 0}, Vec2{1, 0}, Vec2{1, 1}, Vec2{0, 1}};  // as Mitsuba's rectangle
             } else if (t == "cube") {
                 // Mitsuba: [-1,1]^3 with outward, flat faces.
                 if (mesh.name.empty()) mesh.name = "cube";
@@ -1197,10 +1212,47 @@ private:
                         for (uint32_t k : {0u, 1u, 2u, 0u, 2u, 3u}) idx.push_back(base + k);
                     }
                 build_mesh(src, p.line, pos, {}, idx, to_world, &mesh);
+            } else if (t == "disk") {
+                // Mitsuba: the unit disk in the z = 0 plane, facing +z. Tessellated (kDiskSegments
+                // triangles) with the radius chosen so that the polygon's area is exactly pi, so that
+                // an emitting disk sends out Mitsuba's power; the rim lies within 1.6e-5 of the
+                // circle, relative to the radius.
+                if (mesh.name.empty()) mesh.name = "disk";
+                constexpr int kDiskSegments = 512;
+                const double step = 2 * double(kPi) / kDiskSegments;
+                const double r = std::sqrt(double(kPi) / (0.5 * kDiskSegments * std::sin(step)));
+                std::vector<Vec3> pos = {Vec3(0.0f)};
+                std::vector<Vec2> uv = {Vec2{0, 0}};
+                std::vector<uint32_t> idx;
+                for (int i = 0; i < kDiskSegments; ++i) {
+                    pos.push_back(Vec3(float(r * std::cos(i * step)), float(r * std::sin(i * step)), 0.0f));
+                    uv.push_back(Vec2{1.0f, float(i) / kDiskSegments});  // Mitsuba's (radius, angle / 2 pi)
+                    idx.insert(idx.end(), {0u, uint32_t(1 + i), uint32_t(1 + (i + 1) % kDiskSegments)});
+                }
+                build_mesh(src, p.line, pos, {}, idx, to_world, &mesh);
+                mesh.uvs = std::move(uv);
             } else if (t == "ply" || t == "serialized") {
-                fail(src, p.line, "shape type " + quote(t) + " is not supported; convert the mesh to OBJ");
+                Prop* fprop = find(p, "filename");
+                std::optional<std::string> file = get_string(p, "filename");
+                if (!file) fail(src, p.line, "shape " + quote(t) + " needs a filename");
+                if (mesh.name.empty()) mesh.name = *file;
+                const bool face_normals = get_bool(p, "faceNormals", false);
+                uint32_t shape_index = 0;
+                if (t == "serialized") {
+                    const int si = get_int(p, "shapeIndex", 0);
+                    if (si < 0) fail(src, find(p, "shapeIndex")->line, "shapeIndex must not be negative");
+                    shape_index = uint32_t(si);
+                }
+                if (Prop* m = find(p, "maxSmoothAngle"))
+                    fail(src, m->line, "maxSmoothAngle is not supported (give normals in the mesh or use faceNormals)");
+                load_binary_mesh(src, fprop->line, t, *file, shape_index, to_world, face_normals, &mesh);
+                ignore = [](const std::string& name) -> const char* {
+                    if (name == "srgb") return "it concerns vertex colours, which iris does not use";
+                    return nullptr;
+                };
             } else {
-                fail(src, p.line, "unsupported shape type " + quote(t));
+                fail(src, p.line, "unsupported shape type " + quote(t) +
+                                      " (supported: obj, ply, serialized, sphere, rectangle, disk, cube, shapegroup, instance)");
             }
             mesh.bsdf = *bsdf;
             mesh.flip_normals = flip;
@@ -1291,6 +1343,120 @@ private:
                 idx.push_back(corner_vertex[c + i + 1]);
             }
         build_mesh(src, line, pos, nrm, idx, to_world, mesh, face_normals, file);
+    }
+
+    // Reads a PLY or Mitsuba serialized mesh into `mesh` (world space). Errors name the XML line of
+    // the filename and the mesh file. Normals: the file's, unless flat shading is asked for (the
+    // faceNormals parameter, or serialized's face-normal flag); none in the file = computed smooth
+    // ones, as Mitsuba does.
+    void load_binary_mesh(const Source& src, int line, const std::string& type, const std::string& file, uint32_t index,
+                          const Transform& to_world, bool face_normals, Mesh* mesh) {
+        fs::path path = resolve(src, file);
+        std::string bytes;
+        if (!read_file(path, &bytes))
+            fail(src, line, "cannot read mesh file " + quote(file) + " (resolved to " + path.string() + ")");
+        fingerprint_.add(bytes);
+        if (type == "serialized") fingerprint_.add(std::to_string(index));
+        TriangleMesh tm;
+        try {
+            tm = type == "ply" ? parse_ply(bytes, path.string()) : parse_serialized(bytes, index, path.string());
+        } catch (const MeshFileError& e) {
+            fail(src, line, "in " + type + " mesh " + quote(file) + ": " + e.what());
+        }
+        bytes = std::string();  // the file's bytes are no longer needed: free them before the world-space copy
+        const bool flat = face_normals || tm.face_normals;
+        if (flat) tm.normals.clear();
+        build_mesh(src, line, tm.positions, tm.normals, tm.indices, to_world, mesh, flat, file);
+        mesh->uvs = std::move(tm.uvs);
+    }
+
+    // ---- shapegroups and instances ----------------------------------------------------------------
+    // A shapegroup's shapes, in the group's own space, kept aside until instances place them.
+    //
+    // Instances are flattened: each one is a world-space copy of the group's triangles, so memory
+    // grows with instances x triangles (12 bytes a vertex, 12 a normal, 8 a uv, 12 a triangle). Embree
+    // instancing (RTC_GEOMETRY_TYPE_INSTANCE) would share the BVH and the vertices, but Scene::intersect,
+    // the light samplers and photon emission address world-space Mesh arrays by geometry ID; sharing
+    // would need instance transforms in each of them. Flattening gives exactly the triangles of explicit
+    // copies (tests/unit/test_mesh_formats.cpp checks this), which is what matters for correctness.
+    struct ShapeGroup {
+        std::vector<Mesh> meshes;
+        std::vector<Sphere> spheres;
+    };
+
+    void shape_group(Plugin& p) {
+        const Source& src = *p.src;
+        if (p.id.empty()) fail(src, p.line, "a shapegroup needs an id (instances refer to it)");
+        if (in_group_) fail(src, p.line, "shapegroups cannot be nested (Mitsuba does not allow it either)");
+        const size_t m0 = scene_.meshes.size(), s0 = scene_.spheres.size();
+        in_group_ = true;
+        for (pugi::xml_node c : p.children) {
+            const std::string tag = c.name();
+            if (tag != "shape") fail(src, src.line_of(c), "<" + tag + "> is not allowed inside a shapegroup (only <shape>s)");
+            if (pugi::xml_node e = c.child("emitter"))
+                fail(src, src.line_of(e),
+                     "an area emitter inside a shapegroup is not supported (nor in Mitsuba); attach it to a shape outside");
+            shape(src, c);
+        }
+        in_group_ = false;
+        finish(p);
+        ShapeGroup g;
+        g.meshes.assign(std::make_move_iterator(scene_.meshes.begin() + ptrdiff_t(m0)),
+                        std::make_move_iterator(scene_.meshes.end()));
+        g.spheres.assign(scene_.spheres.begin() + ptrdiff_t(s0), scene_.spheres.end());
+        scene_.meshes.resize(m0);
+        scene_.spheres.resize(s0);
+        if (g.meshes.empty() && g.spheres.empty()) fail(src, p.line, "shapegroup " + quote(p.id) + " has no shapes");
+        groups_[p.id] = std::move(g);
+    }
+
+    void instance(Plugin& p) {
+        const Source& src = *p.src;
+        if (in_group_) fail(src, p.line, "an instance inside a shapegroup is not supported");
+        pugi::xml_node ref;
+        for (pugi::xml_node c : p.children) {
+            if (std::string_view(c.name()) != "ref")
+                fail(src, src.line_of(c), "<" + std::string(c.name()) + "> is not allowed inside an instance (only a <ref> to a shapegroup)");
+            if (ref) fail(src, src.line_of(c), "an instance refers to one shapegroup; this is a second <ref>");
+            ref = c;
+        }
+        if (!ref) fail(src, p.line, "an instance needs a <ref id=\"...\"/> to a shapegroup");
+        check_attrs(src, ref, {"id", "name"});
+        check_no_text(src, ref);
+        const std::string id = attr(src, ref, "id");
+        auto it = groups_.find(id);
+        if (it == groups_.end()) {
+            auto known = ids_.find(id);
+            if (known != ids_.end())
+                fail(src, src.line_of(ref), "<ref id=" + quote(id) + "> refers to a <" + known->second.tag + ">, not to a shapegroup");
+            fail(src, src.line_of(ref), "undefined shapegroup " + quote(id) + " (it must be declared before its instances)");
+        }
+        const Transform m = get_transform(p, "toWorld").value_or(Transform());
+        finish(p);
+        const ShapeGroup& g = it->second;
+        for (const Mesh& gm : g.meshes) {
+            Mesh out;
+            out.name = gm.name + " (instance of " + quote(id) + ")";
+            // The group's normals (given or computed) are transformed; flat meshes stay flat.
+            build_mesh(src, p.line, gm.positions, gm.normals, gm.indices, m, &out);
+            out.uvs = gm.uvs;
+            out.bsdf = gm.bsdf;
+            out.flip_normals = gm.flip_normals;
+            scene_.meshes.push_back(std::move(out));
+        }
+        for (Sphere s : g.spheres) {
+            Vec3 ax = m.vector(Vec3(1, 0, 0)), ay = m.vector(Vec3(0, 1, 0)), az = m.vector(Vec3(0, 0, 1));
+            float lx = length(ax), ly = length(ay), lz = length(az);
+            float tol = 1e-4f * std::max(lx, std::max(ly, lz));
+            if (std::abs(lx - ly) > tol || std::abs(lx - lz) > tol || std::abs(dot(ax, ay)) > tol * lx ||
+                std::abs(dot(ax, az)) > tol * lx || std::abs(dot(ay, az)) > tol * lx)
+                fail(src, p.line, "an instance of a shapegroup with a sphere must scale uniformly (no shear)");
+            s.center = m.point(s.center);
+            s.radius *= lx;
+            if (!is_finite(s.center) || !(s.radius > 0) || !std::isfinite(s.radius))
+                fail(src, p.line, "an instanced sphere's centre or radius is not finite after toWorld");
+            scene_.spheres.push_back(s);
+        }
     }
 
     // Transforms object-space geometry to world space and fills `mesh`: drops zero-area triangles
@@ -1509,6 +1675,8 @@ private:
     bool have_sensor_ = false, have_integrator_ = false;
     int default_bsdf_ = -1;
     int include_depth_ = 0;
+    std::map<std::string, ShapeGroup> groups_;
+    bool in_group_ = false;
 };
 
 }  // namespace

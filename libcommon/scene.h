@@ -20,6 +20,7 @@ struct Mesh {
     std::string name;              // for messages: file name or shape id
     std::vector<Vec3> positions;   // world space
     std::vector<Vec3> normals;     // per-vertex shading normals (world space), empty = flat shading
+    std::vector<Vec2> uvs;         // per-vertex texture coordinates (u, v) from the mesh file, empty = none
     std::vector<uint32_t> indices; // 3 per triangle
     uint32_t bsdf = 0;             // index into Scene::bsdfs
     int32_t light = -1;            // index into Scene::lights if the mesh is an area emitter

@@ -6,8 +6,8 @@
 # CPU_SECONDS (default 1800) is the CPU time (user + sys, measured) each target gets: a target runs in
 # rounds of libFuzzer -max_total_time=<CPU seconds still owed> until its measured CPU time reaches
 # CPU_SECONDS, so a busy or shared machine gets the same amount of fuzzing, only later. TARGETs are
-# scene_xml (load_scene on a scene XML), obj (parse_obj) and hdf5 (the stage-file readers); default all
-# three, one after another (FUZZ_PARALLEL=2 runs two at a time).
+# scene_xml (load_scene on a scene XML), obj (parse_obj), mesh (parse_ply, parse_serialized) and hdf5
+# (the stage-file readers); default all four, one after another (FUZZ_PARALLEL=2 runs two at a time).
 #
 # Installs clang and libFuzzer with apt-get if missing (as root, or through sudo), configures and builds
 # build-fuzz/ (IRIS_FUZZ=ON), and keeps, per target:
@@ -32,7 +32,7 @@ ROOT=$(cd "$(dirname "$0")/.." && pwd)
 CPU_SECONDS=${1:-1800}
 shift || true
 TARGETS=("$@")
-[[ ${#TARGETS[@]} -gt 0 ]] || TARGETS=(scene_xml obj hdf5)
+[[ ${#TARGETS[@]} -gt 0 ]] || TARGETS=(scene_xml obj mesh hdf5)
 BUILD="$ROOT/build-fuzz"
 PARALLEL=${FUZZ_PARALLEL:-1}
 NICE=${FUZZ_NICE:-15}
@@ -41,7 +41,7 @@ RUN_ID=$(date -u +%Y%m%dT%H%M%SZ)
 KEEP_GOING=${FUZZ_KEEP_GOING-hdf5}
 
 for t in "${TARGETS[@]}"; do
-  case $t in scene_xml | obj | hdf5) ;; *) echo "fuzz.sh: unknown target '$t' (scene_xml, obj, hdf5)" >&2; exit 2 ;; esac
+  case $t in scene_xml | obj | mesh | hdf5) ;; *) echo "fuzz.sh: unknown target '$t' (scene_xml, obj, mesh, hdf5)" >&2; exit 2 ;; esac
 done
 
 # ---- clang + libFuzzer -------------------------------------------------------------------------------
@@ -95,6 +95,10 @@ seed_hdf5() {
   done
 }
 
+# PLY and serialized meshes: the committed seeds (tests/fuzz/seeds/mesh/, from tests/fuzz/make_mesh_seeds.py)
+# are all; fuzz_target copies them in.
+seed_mesh() { :; }
+
 # ---- fuzzing ---------------------------------------------------------------------------------------
 fuzz_target() {
   local t=$1 corpus="$BUILD/corpus/$1" seeds="$BUILD/seeds/$1" crashes="$BUILD/crashes/$1"
@@ -109,6 +113,7 @@ fuzz_target() {
   case $t in
     scene_xml) args+=(-dict="$ROOT/tests/fuzz/scene_xml.dict" -max_len=16384) ;;
     obj) args+=(-dict="$ROOT/tests/fuzz/obj.dict" -max_len=16384) ;;
+    mesh) args+=(-max_len=16384) ;;
     hdf5) args+=(-max_len=131072) ;;
   esac
   # Keep-going targets run in libFuzzer's fork mode, which saves every crashing input and goes on: the

@@ -8,6 +8,8 @@
 //
 //   scene_xml_one   bytes = a scene XML file      -> load_scene       (SceneError)
 //   obj_one         bytes = OBJ text              -> parse_obj        (ObjError)
+//   mesh_one        bytes = a PLY file ("ply" first) -> parse_ply, or a Mitsuba serialized file
+//                   -> serialized_shape_count and parse_serialized of shapes 0 and 1 (MeshFileError)
 //   stage_hdf5_one  byte 0 picks the reader, the rest is the HDF5 file
 //                   -> read_photon_map / read_cache_points / read_cache_atlas, their _header
 //                      variants, read_stage_header, stage_file_format  (StageFileError)
@@ -32,6 +34,8 @@
 #include "formats/hdf5_util.h"
 #include "formats/obj.h"
 #include "formats/photon_map.h"
+#include "formats/ply.h"
+#include "formats/serialized.h"
 #include "formats/scene_xml.h"
 
 namespace iris::fuzz {
@@ -137,6 +141,21 @@ inline int obj_one(const uint8_t* data, size_t size) {
     try {
         ObjMesh mesh = parse_obj(std::string_view(reinterpret_cast<const char*>(data), size), "fuzz.obj");
     } catch (const ObjError&) {
+    }
+    return 0;
+}
+
+// PLY or Mitsuba serialized mesh bytes, straight from memory.
+inline int mesh_one(const uint8_t* data, size_t size) {
+    const std::string_view bytes(reinterpret_cast<const char*>(data), size);
+    try {
+        if (bytes.substr(0, 3) == "ply") {
+            TriangleMesh m = parse_ply(bytes, "fuzz.ply");
+        } else {
+            serialized_shape_count(bytes, "fuzz.serialized");
+            for (uint32_t i = 0; i < 2; ++i) TriangleMesh m = parse_serialized(bytes, i, "fuzz.serialized");
+        }
+    } catch (const MeshFileError&) {
     }
     return 0;
 }

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "formats/serialized.h"
 #include "support/run_tool.h"
 
 namespace fs = std::filesystem;
@@ -219,6 +220,34 @@ protected:
                    emitter(R"(type="spot"><float name="cutoffAngle" value="10"/><float name="beamWidth" value="30"/>)"));
         write_text(in("directional_zero.xml"), emitter(R"(type="directional"><vector name="direction" x="0" y="0" z="0"/>)"));
         write_text(in("empty.obj"), "# no faces\nv 0 0 0\n");
+        // PLY and Mitsuba serialized meshes: a valid triangle, then broken copies.
+        auto mesh_shape = [](const char* type, const std::string& file, const std::string& extra = "") {
+            return std::string("type=\"") + type + "\">\n    <string name=\"filename\" value=\"" + file + "\"/>" + extra;
+        };
+        std::string ply = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                          "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+        const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+        const int32_t tri[3] = {0, 1, 2};
+        ply.append(reinterpret_cast<const char*>(xyz), sizeof xyz).push_back('\3');
+        ply.append(reinterpret_cast<const char*>(tri), sizeof tri);
+        write_text(in("truncated_ply.xml"), scene_with(mesh_shape("ply", "truncated.ply")));
+        write_text(in("truncated.ply"), ply.substr(0, ply.size() - 7));
+        write_text(in("corrupt_ply.xml"), scene_with(mesh_shape("ply", "corrupt.ply")));
+        write_text(in("corrupt.ply"), replace_all(ply, "property float y", "property flaot y"));
+        iris::TriangleMesh m;
+        m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+        m.indices = {0, 1, 2};
+        const std::string shape = iris::serialize_shape(m, "triangle");
+        const std::string ser = shape + iris::serialized_dictionary({shape.size()});
+        write_text(in("truncated_serialized.xml"), scene_with(mesh_shape("serialized", "truncated.serialized")));
+        write_text(in("truncated.serialized"), ser.substr(0, ser.size() / 2));
+        std::string corrupt = ser;
+        for (size_t i = 6; i < shape.size() - 4; ++i) corrupt[i] = char(corrupt[i] ^ 0xa5);  // the zlib stream
+        write_text(in("corrupt_serialized.xml"), scene_with(mesh_shape("serialized", "corrupt.serialized")));
+        write_text(in("corrupt.serialized"), corrupt);
+        write_text(in("shape_index.xml"),
+                   scene_with(mesh_shape("serialized", "good.serialized", "\n    <integer name=\"shapeIndex\" value=\"2\"/>")));
+        write_text(in("good.serialized"), ser);
         fs::create_directory(in("adir"));
     }
     static fs::path dir_;
@@ -296,6 +325,11 @@ const BadInputCase kCases[] = {
     {"SpotBeamWiderThanCutoff", "render", "spot light beamWidth 30 > cutoffAngle 10", "{in}/spot_beam.xml -o {out}", "beamWidth"},
     {"DirectionalZeroDirection", "render", "directional light with direction (0, 0, 0)", "{in}/directional_zero.xml -o {out}", "direction"},
     {"TracePhotonsEnvmapMissing", "trace-photons", "envmap file does not exist", "{in}/envmap_missing.xml -o {out}", "no_such_sky.exr"},
+    {"PlyTruncated", "render", "binary PLY cut short in its face list", "{in}/truncated_ply.xml -o {out}", "truncated.ply"},
+    {"PlyCorrupt", "render", "PLY header with an unknown property type", "{in}/corrupt_ply.xml -o {out}", "corrupt.ply"},
+    {"SerializedTruncated", "render", "serialized mesh cut in half", "{in}/truncated_serialized.xml -o {out}", "truncated.serialized"},
+    {"SerializedCorrupt", "render", "serialized mesh with scrambled zlib data", "{in}/corrupt_serialized.xml -o {out}", "corrupt.serialized"},
+    {"SerializedBadShapeIndex", "render", "shapeIndex 2 in a one-shape serialized file", "{in}/shape_index.xml -o {out}", "shapeIndex"},
     {"TracePhotonsSceneMissing", "trace-photons", "scene file does not exist", "{in}/missing.xml -o {out}", "missing.xml"},
     {"PlaceCachesSceneMalformed", "place-caches", "malformed scene", "{in}/malformed.xml --photons {in}/photons.h5 -o {out}", "malformed.xml"},
 

@@ -58,6 +58,8 @@ TEST(FuzzRegressions, SceneXml) { EXPECT_GT(run_inputs("scene_xml", iris::fuzz::
 
 TEST(FuzzRegressions, Obj) { EXPECT_GT(run_inputs("obj", iris::fuzz::obj_one), 0u); }
 
+TEST(FuzzRegressions, Mesh) { EXPECT_GT(run_inputs("mesh", iris::fuzz::mesh_one), 0u); }
+
 TEST(FuzzRegressions, StageHdf5) { EXPECT_GT(run_inputs("hdf5", iris::fuzz::stage_hdf5_one), 0u); }
 
 // The harness itself: a valid input is read without an exception, an invalid one is swallowed, and
@@ -73,7 +75,7 @@ TEST(FuzzRegressions, HarnessAcceptsValidAndInvalidInputs) {
         "name=\"filename\" value=\"mesh.obj\"/><emitter type=\"area\"/></shape><include "
         "filename=\"include.xml\"/></scene>";
     EXPECT_NO_THROW(iris::fuzz::scene_xml_one(reinterpret_cast<const uint8_t*>(scene.data()), scene.size()));
-    for (OneInput one : {iris::fuzz::scene_xml_one, iris::fuzz::obj_one, iris::fuzz::stage_hdf5_one}) {
+    for (OneInput one : {iris::fuzz::scene_xml_one, iris::fuzz::obj_one, iris::fuzz::mesh_one, iris::fuzz::stage_hdf5_one}) {
         EXPECT_NO_THROW(one(nullptr, 0));
         const uint8_t junk[] = {6, 'n', 'o', 't', ' ', 'h', 'd', 'f', '5'};
         EXPECT_NO_THROW(one(junk, sizeof junk));
