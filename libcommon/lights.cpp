@@ -268,6 +268,18 @@ EnvCoord env_coord(const EnvMap& m, Vec3 d_world) {
     return c;
 }
 
+// A light sample from a point in space (point and spot lights): a delta in position, so pdf 1 and
+// no surface normal; `radiance` already holds the intensity over the squared distance (W/(m^2 sr)).
+void set_point_sample(Vec3 position, Vec3 wi, double dist, RGB radiance, LightSample* s) {
+    s->p = position;
+    s->n = Vec3(0);
+    s->wi = wi;
+    s->dist = float(dist);
+    s->radiance = radiance;
+    s->pdf = 1.0f;
+    s->delta = true;
+}
+
 }  // namespace
 
 std::shared_ptr<const EnvMap> make_envmap(int width, int height, std::vector<RGB> texels, const Transform& to_world) {
@@ -470,13 +482,7 @@ bool sample_light(const Scene& scene, Vec3 ref, float u_sel, Vec2 u, LightSample
             double dist = std::sqrt(d2);
             RGB radiance = l.radiance * float(1.0 / d2);
             if (!is_finite(radiance)) break;  // reference point (nearly) on the light
-            s->p = l.position;
-            s->n = Vec3(0);
-            s->wi = to_f(scale(d, 1.0 / dist));
-            s->dist = float(dist);
-            s->radiance = radiance;
-            s->pdf = 1.0f;
-            s->delta = true;
+            set_point_sample(l.position, to_f(scale(d, 1.0 / dist)), dist, radiance, s);
             ok = true;
             break;
         }
@@ -490,13 +496,7 @@ bool sample_light(const Scene& scene, Vec3 ref, float u_sel, Vec2 u, LightSample
             if (!(fall > 0)) break;
             RGB radiance = l.radiance * float(fall / d2);
             if (!is_finite(radiance)) break;
-            s->p = l.position;
-            s->n = Vec3(0);
-            s->wi = wi;
-            s->dist = float(dist);
-            s->radiance = radiance;
-            s->pdf = 1.0f;
-            s->delta = true;
+            set_point_sample(l.position, wi, dist, radiance, s);
             ok = true;
             break;
         }
