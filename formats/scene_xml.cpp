@@ -37,6 +37,7 @@
 #include "formats/obj.h"
 #include "formats/ply.h"
 #include "formats/serialized.h"
+#include "formats/texture_file.h"
 #include "libcommon/spectrum.h"
 
 namespace iris {
@@ -252,6 +253,9 @@ public:
         for (const auto& [id, nb] : named_bsdfs_)
             if (!nb.used)
                 warn(*nb.src, nb.line, "bsdf " + quote(id) + " is never referenced");
+        for (const auto& [id, nt] : named_textures_)
+            if (!nt.used)
+                warn(*nt.src, nt.line, "texture " + quote(id) + " is never referenced");
         if (scene_.lights.empty()) warn(src, src.line_of(root), "the scene has no emitters; it will render black");
 
         // The parameter overrides change the scene, so they are part of its identity.
@@ -715,7 +719,7 @@ private:
         if (std::string(c.name()) == "texture")
             fail(*p.src, p.src->line_of(c),
                  "unsupported plugin " + quote(c.attribute("type").value()) + " (texture for parameter " +
-                     quote(c.attribute("name").value()) + " of " + p.what() + "; iris reads constant parameters only)");
+                     quote(c.attribute("name").value()) + " of " + p.what() + "; iris textures BSDF parameters only)");
         fail(*p.src, p.src->line_of(c), "<" + std::string(c.name()) + "> is not allowed inside " + p.what());
     }
 
@@ -733,7 +737,8 @@ private:
             else if (tag == "shape") shape(src, c);
             else if (tag == "emitter") emitter(src, c);
             else if (tag == "medium") medium(src, c);
-            else if (tag == "texture" || tag == "alias" || tag == "null" || tag == "phase" || tag == "subsurface")
+            else if (tag == "texture") top_level_texture(src, c);
+            else if (tag == "alias" || tag == "null" || tag == "phase" || tag == "subsurface")
                 fail(src, src.line_of(c), "<" + tag + "> is not supported by iris");
             else fail(src, src.line_of(c), "unknown element <" + tag + "> in <scene>");
         }
@@ -899,6 +904,21 @@ private:
     }
 
     // ---- BSDFs ----------------------------------------------------------------------------------
+    // A BSDF parameter given by a texture (see "textures" below): which one, and where.
+    struct TexParam {
+        int16_t index = -1;
+        int line = 0;
+        bool used = false;
+    };
+    using TexParams = std::map<std::string, TexParam>;
+
+    struct NamedTexture {
+        int16_t index = -1;
+        const Source* src = nullptr;
+        int line = 0;
+        bool used = false;
+    };
+
     struct NamedBsdf {
         Bsdf bsdf;
         const Source* src = nullptr;
@@ -950,22 +970,23 @@ private:
             }
             b.two_sided = true;
         } else {
-            no_children(p);
+            TexParams tex = bsdf_textures(p);
             if (t == "diffuse") {
                 b.type = BsdfType::Diffuse;
-                b.diffuse = get_spectrum(p, "reflectance", RGB(0.5f));
+                b.diffuse = spectrum_param(p, tex, "reflectance", RGB(0.5f), &b.tex_diffuse);
             } else if (t == "roughdiffuse") {
                 b.type = BsdfType::RoughDiffuse;
-                b.diffuse = get_spectrum(p, "reflectance", RGB(0.5f));
-                b.alpha_u = b.alpha_v = alpha_param(p, "alpha", 0.2f);
+                b.diffuse = spectrum_param(p, tex, "reflectance", RGB(0.5f), &b.tex_diffuse);
+                b.alpha_u = b.alpha_v = alpha_param(p, tex, "alpha", 0.2f, &b.tex_alpha_u);
+                b.tex_alpha_v = b.tex_alpha_u;
                 if (get_bool(p, "useFastApprox", false))
                     warn(src, find(p, "useFastApprox")->line,
                          "useFastApprox ignored: iris always evaluates the full Oren-Nayar model");
             } else if (t == "dielectric") {
                 b.type = BsdfType::Dielectric;
                 b.ior = get_ior(p, "intIOR", "bk7") / get_ior(p, "extIOR", "air");
-                b.specular = get_spectrum(p, "specularReflectance", RGB(1.0f));
-                b.transmittance = get_spectrum(p, "specularTransmittance", RGB(1.0f));
+                b.specular = spectrum_param(p, tex, "specularReflectance", RGB(1.0f), &b.tex_specular);
+                b.transmittance = spectrum_param(p, tex, "specularTransmittance", RGB(1.0f), &b.tex_transmittance);
                 ignore = [](const std::string& param) -> const char* {
                     if (param == "diffuseReflectance" || param == "reflectance")
                         return "Mitsuba 0.5 ignores it too (unqueried attribute)";
@@ -982,10 +1003,10 @@ private:
                 const float ext = get_ior(p, "extEta", "air");
                 b.eta = eta / ext;
                 b.k = k / ext;
-                b.specular = get_spectrum(p, "specularReflectance", RGB(1.0f));
+                b.specular = spectrum_param(p, tex, "specularReflectance", RGB(1.0f), &b.tex_specular);
                 if (t == "roughconductor") {
                     b.distribution = distribution(p);
-                    anisotropic_alpha(p, &b);
+                    anisotropic_alpha(p, tex, &b);
                     ignore = [](const std::string& param) -> const char* {
                         if (param == "reflectance") return "Mitsuba 0.5 ignores it too (unqueried attribute)";
                         if (param == "sampleVisible") return "a sampling strategy only; it does not change the result";
@@ -997,12 +1018,13 @@ private:
             } else if (t == "plastic" || t == "roughplastic") {
                 b.type = t == "plastic" ? BsdfType::Plastic : BsdfType::RoughPlastic;
                 b.ior = get_ior(p, "intIOR", "polypropylene") / get_ior(p, "extIOR", "air");
-                b.diffuse = get_spectrum(p, "diffuseReflectance", RGB(0.5f));
-                b.specular = get_spectrum(p, "specularReflectance", RGB(1.0f));
+                b.diffuse = spectrum_param(p, tex, "diffuseReflectance", RGB(0.5f), &b.tex_diffuse);
+                b.specular = spectrum_param(p, tex, "specularReflectance", RGB(1.0f), &b.tex_specular);
                 b.nonlinear = get_bool(p, "nonlinear", false);
                 if (t == "roughplastic") {
                     b.distribution = distribution(p);
-                    b.alpha_u = b.alpha_v = alpha_param(p, "alpha", 0.1f);
+                    b.alpha_u = b.alpha_v = alpha_param(p, tex, "alpha", 0.1f, &b.tex_alpha_u);
+                    b.tex_alpha_v = b.tex_alpha_u;
                     ignore = [](const std::string& param) -> const char* {
                         if (param == "sampleVisible") return "a sampling strategy only; it does not change the result";
                         return nullptr;
@@ -1015,12 +1037,18 @@ private:
                 else if (variant == "ward-duer") b.ward_variant = WardVariant::WardDuer;
                 else if (variant == "balanced") b.ward_variant = WardVariant::Balanced;
                 else fail(src, find(p, "variant")->line, "ward variant must be ward, ward-duer or balanced, not " + quote(variant));
-                anisotropic_alpha(p, &b);
-                b.diffuse = get_spectrum(p, "diffuseReflectance", RGB(0.5f));
-                b.specular = get_spectrum(p, "specularReflectance", RGB(0.2f));
+                anisotropic_alpha(p, tex, &b);
+                b.diffuse = spectrum_param(p, tex, "diffuseReflectance", RGB(0.5f), &b.tex_diffuse);
+                b.specular = spectrum_param(p, tex, "specularReflectance", RGB(0.2f), &b.tex_specular);
             } else {
                 fail(src, p.line, "unsupported bsdf type " + quote(t));
             }
+            for (const auto& [name, tp] : tex)
+                if (!tp.used)
+                    fail(src, tp.line, "parameter " + quote(name) + " of " + p.what() +
+                                           (find(p, name) || known_constant_param(t, name)
+                                                ? " cannot be a texture in iris (only reflectances, transmittance and roughness can)"
+                                                : " is unknown (a texture was given for it)"));
         }
         finish(p, ignore);
         check_bsdf(p, b);
@@ -1048,20 +1076,277 @@ private:
         // Mitsuba clamps roughness to 1e-4: smaller values are numerically a mirror.
         return std::max(a, 1e-4f);
     }
+    // The same, or a texture (its mean over R, G, B at the hit: Bsdf::tex_alpha_*).
+    float alpha_param(Plugin& p, TexParams& tex, const std::string& name, float def, int16_t* tex_index) {
+        auto it = tex.find(name);
+        if (it == tex.end()) return alpha_param(p, name, def);
+        it->second.used = true;
+        *tex_index = it->second.index;
+        return def;
+    }
 
     // Roughness as Mitsuba's microfacet models take it: either `alpha` (isotropic) or both `alphaU`
-    // and `alphaV`; default 0.1.
-    void anisotropic_alpha(Plugin& p, Bsdf* b) {
-        const bool has_a = find(p, "alpha"), has_u = find(p, "alphaU"), has_v = find(p, "alphaV");
-        if (has_a && (has_u || has_v)) fail(*p.src, find(p, "alpha")->line, "give either alpha or alphaU/alphaV");
-        if (has_u != has_v)
-            fail(*p.src, find(p, has_u ? "alphaU" : "alphaV")->line, "alphaU and alphaV must be given together");
+    // and `alphaV`; default 0.1. Each may be a texture.
+    void anisotropic_alpha(Plugin& p, TexParams& tex, Bsdf* b) {
+        auto line_of = [&](const char* n) { return find(p, n) ? find(p, n)->line : tex.at(n).line; };
+        const bool has_a = find(p, "alpha") || tex.count("alpha"), has_u = find(p, "alphaU") || tex.count("alphaU"),
+                   has_v = find(p, "alphaV") || tex.count("alphaV");
+        if (has_a && (has_u || has_v)) fail(*p.src, line_of("alpha"), "give either alpha or alphaU/alphaV");
+        if (has_u != has_v) fail(*p.src, line_of(has_u ? "alphaU" : "alphaV"), "alphaU and alphaV must be given together");
         if (has_u) {
-            b->alpha_u = alpha_param(p, "alphaU", 0.1f);
-            b->alpha_v = alpha_param(p, "alphaV", 0.1f);
+            b->alpha_u = alpha_param(p, tex, "alphaU", 0.1f, &b->tex_alpha_u);
+            b->alpha_v = alpha_param(p, tex, "alphaV", 0.1f, &b->tex_alpha_v);
         } else {
-            b->alpha_u = b->alpha_v = alpha_param(p, "alpha", 0.1f);
+            b->alpha_u = b->alpha_v = alpha_param(p, tex, "alpha", 0.1f, &b->tex_alpha_u);
+            b->tex_alpha_v = b->tex_alpha_u;
         }
+    }
+
+    // ---- textures -------------------------------------------------------------------------------
+    // Mitsuba's textures on BSDF parameters: `bitmap` (an image file), `checkerboard`, and `scale` (a
+    // texture times a constant), nested in the BSDF (<texture name="reflectance" ...>) or declared at
+    // the top level with an id and referenced (<ref name="reflectance" id="..."/>). Each distinct
+    // texture becomes one Scene::textures entry: repeated references share it, and an image file is
+    // decoded (and fingerprinted) once however many textures read it.
+
+    // Parameters the BSDF plugins take as constants only (a texture for one is refused by name).
+    static bool known_constant_param(const std::string& type, const std::string& name) {
+        static const char* const kNames[] = {"intIOR", "extIOR", "eta", "k", "extEta", "material", "distribution",
+                                             "nonlinear", "variant", "useFastApprox", "sampleVisible"};
+        (void)type;
+        return std::find(std::begin(kNames), std::end(kNames), name) != std::end(kNames);
+    }
+
+    // The BSDF's nested <texture> and <ref> children, by the parameter each gives.
+    TexParams bsdf_textures(Plugin& p) {
+        TexParams out;
+        const Source& src = *p.src;
+        for (pugi::xml_node c : p.children) {
+            const std::string tag = c.name();
+            const int line = src.line_of(c);
+            if (tag != "texture" && tag != "ref") fail(src, line, "<" + tag + "> is not allowed inside " + p.what());
+            const std::optional<std::string> name = opt_attr(src, c, "name");
+            if (!name || name->empty())
+                fail(src, line, "a <" + tag + "> inside " + p.what() + " needs a name (the parameter it gives)");
+            if (Prop* prop = find(p, *name))
+                fail(src, line, "parameter " + quote(*name) + " given twice (first at line " + std::to_string(prop->line) + ")");
+            if (auto it = out.find(*name); it != out.end())
+                fail(src, line, "parameter " + quote(*name) + " given twice (first at line " + std::to_string(it->second.line) + ")");
+            TexParam tp;
+            tp.line = line;
+            tp.index = tag == "texture" ? parse_texture(src, c, "texture for parameter " + quote(*name) + " of " + p.what())
+                                        : texture_ref(src, c);
+            out[*name] = tp;
+        }
+        return out;
+    }
+
+    // A constant or textured colour parameter: the constant (or `def`) with *tex_index = -1, or
+    // `def` with *tex_index naming the texture.
+    RGB spectrum_param(Plugin& p, TexParams& tex, const std::string& name, RGB def, int16_t* tex_index) {
+        auto it = tex.find(name);
+        if (it == tex.end()) return get_spectrum(p, name, def);
+        it->second.used = true;
+        *tex_index = it->second.index;
+        return def;
+    }
+
+    void top_level_texture(const Source& src, pugi::xml_node n) {
+        const int line = src.line_of(n);
+        const std::string id = opt_attr(src, n, "id").value_or("");
+        parse_texture(src, n, "texture", true);
+        if (id.empty()) warn(src, line, "a top-level texture without an id can never be used");
+    }
+
+    // <ref id=...> to a texture declared earlier.
+    int16_t texture_ref(const Source& src, pugi::xml_node n) {
+        check_attrs(src, n, {"id", "name"});
+        check_no_text(src, n);
+        const int line = src.line_of(n);
+        const std::string id = attr(src, n, "id");
+        auto it = named_textures_.find(id);
+        if (it == named_textures_.end()) {
+            auto known = ids_.find(id);
+            if (known != ids_.end())
+                fail(src, line, "<ref id=" + quote(id) + "> refers to a <" + known->second.tag + ">, not to a texture");
+            fail(src, line, "undefined reference " + quote(id) + " (a texture must be declared before it is referenced)");
+        }
+        it->second.used = true;
+        return it->second.index;
+    }
+
+    // Texture coordinates' scale and offset, as Mitsuba's Texture2D reads them (uvscale sets both scales).
+    void uv_transform(Plugin& p, Texture* t) {
+        const float uv = get_float(p, "uvscale", 1.0f);
+        t->uscale = get_float(p, "uscale", uv);
+        t->vscale = get_float(p, "vscale", uv);
+        t->uoffset = get_float(p, "uoffset", 0.0f);
+        t->voffset = get_float(p, "voffset", 0.0f);
+    }
+
+    WrapMode wrap_mode(Plugin& p, const std::string& name, WrapMode def) {
+        std::optional<std::string> w = get_string(p, name);
+        if (!w) return def;
+        const std::string v = lower(*w);
+        if (v == "repeat") return WrapMode::Repeat;
+        if (v == "mirror") return WrapMode::Mirror;
+        if (v == "clamp") return WrapMode::Clamp;
+        if (v == "zero") return WrapMode::Zero;
+        if (v == "one") return WrapMode::One;
+        fail(*p.src, find(p, name)->line, name + " must be repeat, mirror, clamp, zero or one, not " + quote(*w));
+    }
+
+    int16_t add_texture(Texture t, const std::string& key) {
+        if (auto it = texture_by_key_.find(key); it != texture_by_key_.end()) return it->second;
+        if (scene_.textures.size() >= size_t(INT16_MAX))
+            throw SceneError("more than " + std::to_string(INT16_MAX) + " distinct textures");
+        scene_.textures.push_back(std::move(t));
+        const int16_t i = int16_t(scene_.textures.size() - 1);
+        texture_by_key_.emplace(key, i);
+        return i;
+    }
+
+    static std::string key_of(const Texture& t) {
+        char b[160];
+        std::snprintf(b, sizeof b, "|%d|%d|%d|%a|%a|%a|%a|%a|%a|%a|%a|%a|%a", int(t.wrap_u), int(t.wrap_v),
+                      int(t.filter), t.uscale, t.vscale, t.uoffset, t.voffset, t.color0.r, t.color0.g, t.color0.b,
+                      t.color1.r, t.color1.g, t.color1.b);
+        return b;
+    }
+
+    // A <texture> element -> index into scene_.textures. `context` names where it stands, for messages.
+    int16_t parse_texture(const Source& src, pugi::xml_node n, const std::string& context, bool top_level = false) {
+        Plugin p = read_plugin(src, n);
+        int16_t index = -1;
+        if (p.type == "bitmap") {
+            no_children(p);
+            std::optional<std::string> file = get_string(p, "filename");
+            if (!file) fail(src, p.line, "texture \"bitmap\" needs a filename");
+            const int fline = find(p, "filename")->line;
+            BitmapOptions o;
+            o.gamma = get_float(p, "gamma", 0.0f);
+            if (!(o.gamma == 0.0f || o.gamma == -1.0f || o.gamma > 0.0f))
+                fail(src, find(p, "gamma")->line, "gamma must be 0 (automatic), -1 (sRGB) or positive");
+            o.channel = lower(get_string(p, "channel", ""));
+            const std::string filter = lower(get_string(p, "filterType", "ewa"));
+            if (filter == "nearest") o.filter = TextureFilter::Nearest;
+            else if (filter == "ewa" || filter == "trilinear") o.filter = TextureFilter::Bilinear;
+            else fail(src, find(p, "filterType")->line, "filterType must be ewa, trilinear or nearest, not " + quote(filter));
+            if (Prop* f = find(p, "filterType"); f && filter != "nearest")
+                warn(src, f->line, "filterType " + quote(filter) + " read as bilinear: iris has no MIP-map filtering "
+                                   "(pixel averages converge to the same values, with more noise where a texture is minified)");
+            const WrapMode both = wrap_mode(p, "wrapMode", WrapMode::Repeat);
+            o.wrap_u = wrap_mode(p, "wrapModeU", both);
+            o.wrap_v = wrap_mode(p, "wrapModeV", both);
+            Texture shape;
+            uv_transform(p, &shape);
+            o.uscale = shape.uscale;
+            o.vscale = shape.vscale;
+            o.uoffset = shape.uoffset;
+            o.voffset = shape.voffset;
+            finish(p, [](const std::string& name) -> const char* {
+                if (name == "maxAnisotropy") return "it tunes EWA filtering, which iris does not do";
+                if (name == "cache") return "Mitsuba's MIP-map cache switch; iris builds no MIP maps";
+                return nullptr;
+            });
+            const fs::path path = resolve(src, *file);
+            const std::string decode_key = path.lexically_normal().string() + "|" + std::to_string(o.gamma) + "|" + o.channel;
+            Texture t;
+            if (auto it = decoded_by_file_.find(decode_key); it != decoded_by_file_.end()) {
+                t = scene_.textures[size_t(it->second)];  // the same texels, perhaps sampled differently
+            } else {
+                std::string bytes;
+                if (!read_file(path, &bytes))
+                    fail(src, fline, "cannot read texture file " + quote(*file) + " (resolved to " + path.string() + ")");
+                if (!hashed_files_.count(path.lexically_normal().string())) {
+                    fingerprint_.add(bytes);
+                    hashed_files_.insert(path.lexically_normal().string());
+                }
+                bytes = std::string();
+                try {
+                    t = load_bitmap_texture(path.string(), o);
+                } catch (const std::exception& e) {
+                    fail(src, fline, "texture " + quote(*file) + ": " + e.what());
+                }
+                if (t.width <= 0 || t.height <= 0 || t.texels.empty())
+                    fail(src, fline, "texture " + quote(*file) + " has no pixels (" + std::to_string(t.width) + " x " +
+                                         std::to_string(t.height) + ")");
+                for (size_t i = 0; i < t.texels.size(); ++i) {
+                    const RGB c = t.texels[i];
+                    if (!is_finite(c) || c.r < 0 || c.g < 0 || c.b < 0)
+                        fail(src, fline, "texture " + quote(*file) + " has a negative or non-finite value at pixel (" +
+                                             std::to_string(i % size_t(t.width)) + ", " + std::to_string(i / size_t(t.width)) +
+                                             "); BSDF parameters must be finite and non-negative");
+                }
+            }
+            t.filter = o.filter;
+            t.wrap_u = o.wrap_u;
+            t.wrap_v = o.wrap_v;
+            t.uscale = o.uscale;
+            t.vscale = o.vscale;
+            t.uoffset = o.uoffset;
+            t.voffset = o.voffset;
+            const bool fresh = !decoded_by_file_.count(decode_key);
+            index = add_texture(std::move(t), "bitmap|" + decode_key + texture_options_key(o));
+            if (fresh) decoded_by_file_.emplace(decode_key, index);
+        } else if (p.type == "checkerboard") {
+            no_children(p);
+            Texture t;
+            t.type = TextureType::Checkerboard;
+            t.color0 = get_spectrum(p, "color0", RGB(0.4f));
+            t.color1 = get_spectrum(p, "color1", RGB(0.2f));
+            for (const RGB* c : {&t.color0, &t.color1})
+                if (!is_finite(*c) || c->r < 0 || c->g < 0 || c->b < 0)
+                    fail(src, p.line, "checkerboard colours must be finite and non-negative");
+            uv_transform(p, &t);
+            finish(p);
+            const std::string key = "checkerboard" + key_of(t);
+            index = add_texture(std::move(t), key);
+        } else if (p.type == "scale") {
+            // Mitsuba's `scale`: a nested texture times `scale` (a number or a colour), baked into the texels.
+            if (p.children.size() != 1)
+                fail(src, p.line, "texture \"scale\" needs exactly one nested <texture> or <ref>");
+            pugi::xml_node c = p.children[0];
+            const std::string tag = c.name();
+            int16_t inner = -1;
+            if (tag == "texture") inner = parse_texture(src, c, context);
+            else if (tag == "ref") inner = texture_ref(src, c);
+            else fail(src, src.line_of(c), "<" + tag + "> is not allowed inside texture \"scale\"");
+            RGB k(1.0f);
+            if (Prop* sp = find(p, "scale"); sp && (sp->kind == Kind::Float || sp->kind == Kind::Integer))
+                k = RGB(*get_float(p, "scale"));
+            else
+                k = get_spectrum(p, "scale", RGB(1.0f));
+            if (!is_finite(k) || k.r < 0 || k.g < 0 || k.b < 0)
+                fail(src, find(p, "scale")->line, "the scale of texture \"scale\" must be finite and non-negative");
+            finish(p);
+            Texture t = scene_.textures[size_t(inner)];
+            for (RGB& v : t.texels) v = v * k;
+            t.color0 = t.color0 * k;
+            t.color1 = t.color1 * k;
+            char b[96];
+            std::snprintf(b, sizeof b, "scale|%d|%a|%a|%a", int(inner), k.r, k.g, k.b);
+            index = add_texture(std::move(t), b);
+        } else {
+            fail(src, p.line, "unsupported plugin " + quote(p.type) + " (" + context +
+                                  "; iris reads bitmap, checkerboard and scale textures)");
+        }
+        if (!p.id.empty()) {
+            NamedTexture nt;
+            nt.index = index;
+            nt.src = &src;
+            nt.line = p.line;
+            nt.used = !top_level;  // a nested texture is used where it stands
+            named_textures_[p.id] = nt;
+        }
+        return index;
+    }
+
+    static std::string texture_options_key(const BitmapOptions& o) {
+        char b[128];
+        std::snprintf(b, sizeof b, "|%d|%d|%d|%a|%a|%a|%a", int(o.filter), int(o.wrap_u), int(o.wrap_v), o.uscale,
+                      o.vscale, o.uoffset, o.voffset);
+        return b;
     }
 
     Microfacet distribution(Plugin& p) {
@@ -1669,6 +1954,10 @@ private:
     std::map<std::string, std::string> params_;
     std::vector<std::unique_ptr<Source>> sources_;
     std::map<std::string, NamedBsdf> named_bsdfs_;
+    std::map<std::string, NamedTexture> named_textures_;
+    std::map<std::string, int16_t> texture_by_key_;   // texture description -> index: equal ones are shared
+    std::map<std::string, int16_t> decoded_by_file_;  // file|gamma|channel -> a texture holding its texels
+    std::set<std::string> hashed_files_;              // texture files already in the fingerprint
     std::map<std::string, IdInfo> ids_;
     Fingerprint fingerprint_;
     Scene scene_;

@@ -439,11 +439,20 @@ bool layered(const Bsdf& b) {
 
 // ---- Public API -------------------------------------------------------------------------------------------
 
-void bsdf_prepare(Bsdf& b) {
+void bsdf_refresh_weights(Bsdf& b) {
     // Mitsuba: the share of samples sent to the specular lobe is the specular reflectance's luminance
-    // over the sum of both lobes' luminances (plastic, roughplastic, ward).
+    // over the sum of both lobes' luminances (plastic, roughplastic, ward). For textured reflectances
+    // Mitsuba takes the textures' averages, one weight per BSDF; iris takes the values at the hit
+    // (scene_bsdf_at), which sends no samples to a lobe that is black at this texel. Either choice is
+    // unbiased: eval, pdf and sample of one vertex all see the same weight.
     const float ls = luminance(b.specular), ld = luminance(b.diffuse);
     b.specular_sampling_weight = ls + ld > 0 ? ls / (ls + ld) : 0.5f;
+}
+
+void bsdf_prepare(Bsdf& b) {
+    bsdf_refresh_weights(b);
+    b.textured = b.tex_diffuse >= 0 || b.tex_specular >= 0 || b.tex_transmittance >= 0 || b.tex_alpha_u >= 0 ||
+                 b.tex_alpha_v >= 0;
     b.inv_eta2 = b.ior > 0 ? 1.0f / (b.ior * b.ior) : 1.0f;
     b.fdr_int = 0.0f;
     if ((b.type == BsdfType::Plastic || b.type == BsdfType::RoughPlastic) && b.ior > 0)

@@ -50,10 +50,21 @@ struct Bsdf {
     WardVariant ward_variant = WardVariant::Balanced;
     bool nonlinear = false;       // plastic: Mitsuba's `nonlinear` internal scattering model
 
+    // Textured parameters (Mitsuba lets these be <texture>s): indices into Scene::textures, -1 = the
+    // constant above. scene_bsdf_at (scene.h) evaluates them at a hit's uv into a copy of the BSDF;
+    // the functions below only ever see constants. Roughness reads the texture's mean over R, G, B, as
+    // Mitsuba's eval(its).average() does.
+    int16_t tex_diffuse = -1;        // -> diffuse
+    int16_t tex_specular = -1;       // -> specular
+    int16_t tex_transmittance = -1;  // -> transmittance
+    int16_t tex_alpha_u = -1;        // -> alpha_u (the isotropic alpha too)
+    int16_t tex_alpha_v = -1;        // -> alpha_v
+
     // Derived constants, filled by bsdf_prepare() (called by the scene loader after the fields above).
     float specular_sampling_weight = 0.5f;  // probability of sampling the glossy/specular lobe first
     float fdr_int = 0.0f;                   // diffuse Fresnel reflectance seen from inside the coating
     float inv_eta2 = 1.0f;                  // 1/ior^2
+    bool textured = false;                  // some tex_* >= 0
 };
 
 struct BsdfSample {
@@ -66,6 +77,10 @@ struct BsdfSample {
 
 // Fills the derived constants; must be called once after the parameters are set.
 void bsdf_prepare(Bsdf& b);
+// Refreshes only the derived constants that depend on the reflectances (the lobe sampling weight), for a
+// BSDF whose textured parameters were just evaluated at a hit: cheap (two luminances and a division),
+// unlike the IOR-only constants of bsdf_prepare (fdr_int integrates the Fresnel term numerically).
+void bsdf_refresh_weights(Bsdf& b);
 // f(wi, wo) * |cos theta_o| for the non-delta lobes.
 RGB bsdf_eval(const Bsdf& b, Vec3 wi, Vec3 wo, TransportMode mode = TransportMode::Radiance);
 // Density per steradian with which bsdf_sample produces wo (non-delta lobes only).

@@ -1,6 +1,9 @@
 #include "libcommon/scene.h"
 
+#include <algorithm>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 
 #include "libcommon/accel.h"
 
@@ -24,7 +27,13 @@ void Scene::finalize() {
         bounds_max = vmax(bounds_max, s.center + Vec3(s.radius));
     }
     if (meshes.empty() && spheres.empty()) bounds_min = bounds_max = Vec3(0);
-    for (Bsdf& b : bsdfs) bsdf_prepare(b);
+    for (Bsdf& b : bsdfs) {
+        bsdf_prepare(b);
+        for (int16_t i : {b.tex_diffuse, b.tex_specular, b.tex_transmittance, b.tex_alpha_u, b.tex_alpha_v})
+            if (i >= 0 && size_t(i) >= textures.size())
+                throw std::runtime_error("a BSDF refers to texture " + std::to_string(i) + " of " +
+                                         std::to_string(textures.size()));
+    }
     lights_prepare(*this);
     accel = std::make_shared<Accel>(*this);
 }
@@ -59,6 +68,13 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* h) const {
         h->ns = ns;
         h->bsdf = m.bsdf;
         h->light = m.light;
+        // Only where a texture will read it: meshes from PLY files often carry uvs their BSDF ignores.
+        if (!m.uvs.empty() && bsdfs[m.bsdf].textured) {
+            const Vec2 t0 = m.uvs[idx[0]], t1 = m.uvs[idx[1]], t2 = m.uvs[idx[2]];
+            h->uv = Vec2{t0.x * b0 + t1.x * u + t2.x * v, t0.y * b0 + t1.y * u + t2.y * v};
+        } else {
+            h->uv = Vec2{};
+        }
     } else {
         const Sphere& s = spheres[ref.index];
         Vec3 d = (ray.o + ray.d * t) - s.center;
@@ -71,9 +87,37 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* h) const {
         h->ns = h->ng;
         h->bsdf = s.bsdf;
         h->light = s.light;
+        h->uv = Vec2{};
+        if (bsdfs[s.bsdf].textured) {
+            // Mitsuba's sphere: uv = (phi / 2 pi, theta / pi) of the outward direction in the object frame,
+            // phi in [0, 2 pi) from the x axis towards y, theta from +z.
+            const float lx = dot(n, s.axis_x), ly = dot(n, s.axis_y), lz = dot(n, s.axis_z);
+            float phi = std::atan2(ly, lx);
+            if (phi < 0) phi += 2.0f * kPi;
+            h->uv = Vec2{phi * (0.5f * kInvPi), std::acos(std::clamp(lz, -1.0f, 1.0f)) * kInvPi};
+        }
     }
     h->frame = Frame(h->ns);
     return true;
+}
+
+const Bsdf& resolve_textured_bsdf(const Scene& scene, const Bsdf& b, Vec2 uv, Bsdf* scratch) {
+    *scratch = b;
+    Bsdf& r = *scratch;
+    const std::vector<Texture>& t = scene.textures;
+    if (b.tex_diffuse >= 0) r.diffuse = texture_eval(t[size_t(b.tex_diffuse)], uv);
+    if (b.tex_specular >= 0) r.specular = texture_eval(t[size_t(b.tex_specular)], uv);
+    if (b.tex_transmittance >= 0) r.transmittance = texture_eval(t[size_t(b.tex_transmittance)], uv);
+    // Roughness: the texture's mean over R, G, B (Mitsuba's average()), floored at the 1e-4 the loader
+    // applies to constant roughness (smaller is numerically a mirror).
+    auto alpha = [&](int16_t i) {
+        const RGB a = texture_eval(t[size_t(i)], uv);
+        return std::max((a.r + a.g + a.b) * (1.0f / 3.0f), 1e-4f);
+    };
+    if (b.tex_alpha_u >= 0) r.alpha_u = alpha(b.tex_alpha_u);
+    if (b.tex_alpha_v >= 0) r.alpha_v = alpha(b.tex_alpha_v);
+    bsdf_refresh_weights(r);
+    return r;
 }
 
 bool Scene::occluded(const Ray& ray) const { return accel->occluded(ray); }

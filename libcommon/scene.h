@@ -12,6 +12,7 @@
 #include "libcommon/color.h"
 #include "libcommon/lights.h"
 #include "libcommon/math.h"
+#include "libcommon/texture.h"
 
 namespace iris {
 
@@ -35,6 +36,9 @@ struct Sphere {
     uint32_t bsdf = 0;
     int32_t light = -1;
     bool flip_normals = false;
+    // The object frame's unit axes in world space (toWorld's rotation): Mitsuba's spherical uv
+    // parameterization is taken in it (phi about axis_z from axis_x, theta from axis_z).
+    Vec3 axis_x{1, 0, 0}, axis_y{0, 1, 0}, axis_z{0, 0, 1};
 };
 
 enum class FilterType : uint8_t { Box, Gaussian };
@@ -90,6 +94,11 @@ struct SurfaceHit {
     // Largest absolute coordinate of the primitive that was hit (its vertices; a sphere's centre plus
     // radius): the scale of the rounding error in p, which offset_ray_origin must step over.
     float magnitude = 0;
+    // Surface texture coordinates (Mitsuba's its.uv), computed only where the shape's BSDF is textured
+    // (elsewhere (0, 0): nothing reads them, and untextured scenes pay nothing): a mesh's per-vertex
+    // uvs interpolated with the barycentrics ((0, 0) for a mesh without uvs, as in Mitsuba), a
+    // sphere's (phi / 2 pi, theta / pi) in its object frame.
+    Vec2 uv;
 };
 
 class Accel;  // Embree wrapper, defined in accel.h
@@ -100,6 +109,7 @@ struct Scene {
     std::vector<Mesh> meshes;
     std::vector<Sphere> spheres;
     std::vector<Bsdf> bsdfs;
+    std::vector<Texture> textures;  // Bsdf::tex_* index these; one per distinct texture of the file
     std::vector<Light> lights;
     Distribution1D light_selection;  // in proportion to power * sampling_weight
     int environment_light = -1;      // index of the constant environment light, if any
@@ -139,6 +149,18 @@ Vec3 offset_ray_origin(Vec3 p, Vec3 ng, Vec3 w, float magnitude = 0.0f);
 // Whether some shape has a Dirac lobe (bsdf_has_delta_lobe): the only surfaces where light can take a
 // specular bounce (a caustic).
 bool has_specular_surfaces(const Scene& scene);
+
+// The BSDF at a surface hit: scene.bsdfs[hit.bsdf] with its textured parameters evaluated at hit.uv.
+// An untextured BSDF (the common case) is returned by reference, at the cost of one flag test; a
+// textured one is copied into *scratch, its textures looked up and its reflectance-dependent sampling
+// weight refreshed (bsdf_refresh_weights), and *scratch is returned. Every BSDF query at one vertex
+// (eval, pdf, sample, guiding shares) must use the same returned BSDF.
+const Bsdf& resolve_textured_bsdf(const Scene& scene, const Bsdf& b, Vec2 uv, Bsdf* scratch);
+inline const Bsdf& scene_bsdf_at(const Scene& scene, const SurfaceHit& hit, Bsdf* scratch) {
+    const Bsdf& b = scene.bsdfs[hit.bsdf];
+    if (!b.textured) return b;
+    return resolve_textured_bsdf(scene, b, hit.uv, scratch);
+}
 
 // A ray leaving a surface hit in direction w.
 inline Ray spawn_ray(const SurfaceHit& h, Vec3 w) {

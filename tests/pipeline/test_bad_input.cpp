@@ -180,8 +180,17 @@ protected:
         write_text(in("truncated.xml"), caustic_text.substr(0, caustic_text.size() * 6 / 10));
         write_text(in("unknown_plugin.xml"), scene_with(sphere + "\n    <bsdf type=\"velvet\"/>"));
         write_text(in("bumpmap.xml"), scene_with(sphere + "\n    <bsdf type=\"bumpmap\"><bsdf type=\"diffuse\"/></bsdf>"));
-        write_text(in("texture.xml"), scene_with(sphere + "\n    <bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
-                                                 "<string name=\"filename\" value=\"wood.png\"/></texture></bsdf>"));
+        auto textured = [&](const std::string& file) {
+            return scene_with(sphere + "\n    <bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
+                                       "<string name=\"filename\" value=\"" + file + "\"/></texture></bsdf>");
+        };
+        write_text(in("texture.xml"), textured("wood.png"));  // wood.png does not exist
+        write_text(in("not_a_png.png"), "this is no PNG image\n");
+        write_text(in("texture_garbage.xml"), textured("not_a_png.png"));
+        write_text(in("texture_zero.hdr"), "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 0 +X 0\n");
+        write_text(in("texture_zero_hdr.xml"), textured("texture_zero.hdr"));
+        write_text(in("texture_unsupported.xml"),
+                   scene_with(sphere + "\n    <bsdf type=\"diffuse\"><texture type=\"wireframe\" name=\"reflectance\"/></bsdf>"));
         write_text(in("misspelt.xml"), scene_with("type=\"sphere\">\n    <float name=\"radus\" value=\"0.5\"/>"));
         write_text(in("bad_number.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"half\"/>"));
         write_text(in("nan_number.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"nan\"/>"));
@@ -300,7 +309,11 @@ const BadInputCase kCases[] = {
     {"SceneTruncated", "render", "scene file cut off midway", "{in}/truncated.xml -o {out}", "truncated.xml"},
     {"SceneUnknownPlugin", "render", "unknown plugin (bsdf type velvet)", "{in}/unknown_plugin.xml -o {out}", "velvet"},
     {"SceneBumpmap", "render", "unsupported BSDF wrapper (bumpmap)", "{in}/bumpmap.xml -o {out}", "unsupported plugin \"bumpmap\""},
-    {"SceneTexture", "render", "textured BSDF parameter (bitmap)", "{in}/texture.xml -o {out}", "unsupported plugin \"bitmap\""},
+    {"SceneTextureUnsupported", "render", "unsupported texture plugin (wireframe)", "{in}/texture_unsupported.xml -o {out}", "unsupported plugin \"wireframe\""},
+    {"TextureMissing", "render", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png"},
+    {"TextureGarbage", "render", "bitmap texture file that is not an image", "{in}/texture_garbage.xml -o {out}", "not_a_png.png"},
+    {"TextureHdrZeroSize", "render", "Radiance HDR texture of 0 x 0 pixels", "{in}/texture_zero_hdr.xml -o {out}", "texture_zero.hdr"},
+    {"TracePhotonsTextureMissing", "trace-photons", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png"},
     {"SceneMisspeltParameter", "render", "misspelt parameter (radus)", "{in}/misspelt.xml -o {out}", "radus"},
     {"SceneBadNumber", "render", "a number that is not one", "{in}/bad_number.xml -o {out}", "bad_number.xml"},
     {"SceneNanNumber", "render", "NaN as a parameter value", "{in}/nan_number.xml -o {out}", "nan_number.xml"},

@@ -711,13 +711,13 @@ TEST(SceneLoaderErrors, UnknownPlugin) {
                                    "\">\n      <bsdf type=\"diffuse\"/>\n    </bsdf>\n  </shape>\n");
         expect_error(d.write("w.xml", w), line_of(w, wrapper), std::string("unsupported plugin \"") + wrapper + "\" (bsdf)");
     }
-    // A textured parameter names the texture plugin and the parameter.
+    // An unsupported texture plugin names the plugin and the parameter.
     std::string tex = scene_text(
         "  <shape type=\"sphere\">\n    <bsdf type=\"diffuse\">\n"
-        "      <texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"a.png\"/></texture>\n"
+        "      <texture type=\"wireframe\" name=\"reflectance\"/>\n"
         "    </bsdf>\n  </shape>\n");
-    expect_error(d.write("t.xml", tex), line_of(tex, "bitmap"),
-                 "unsupported plugin \"bitmap\" (texture for parameter \"reflectance\" of bsdf \"diffuse\"");
+    expect_error(d.write("t.xml", tex), line_of(tex, "wireframe"),
+                 "unsupported plugin \"wireframe\" (texture for parameter \"reflectance\" of bsdf \"diffuse\"");
     std::string text2 = scene_text("  <shape type=\"torus\"/>\n");
     expect_error(d.write("s2.xml", text2), line_of(text2, "torus"), "unsupported shape type \"torus\"");
     std::string text3 = scene_text("  <lamp type=\"area\"/>\n");

@@ -76,6 +76,12 @@ int main(int argc, char** argv) {
             if (std::string(bsdf_type_name(b.type)) == "other")
                 throw std::runtime_error(path + ": a BSDF type export-scene does not translate (diffuse, dielectric, "
                                                 "conductor only)");
+        // A texture is refused rather than exported as its mean: the peer would render a different
+        // picture under the same numbers, and the comparison this file exists for would be void.
+        for (const iris::Bsdf& b : scene.bsdfs)
+            if (b.textured)
+                throw std::runtime_error(path + ": a textured BSDF parameter (export-scene writes constant "
+                                                "parameters only)");
         for (const iris::Light& l : scene.lights)
             if (l.type != iris::LightType::AreaMesh && l.type != iris::LightType::AreaSphere)
                 throw std::runtime_error(path + ": a light type export-scene does not translate (area only)");

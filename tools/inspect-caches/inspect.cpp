@@ -201,11 +201,12 @@ int cache_for_pixel(const Scene& scene, const CacheAtlas& a, int x, int y, int w
     Ray ray = camera_ray(camera, x + 0.5f, y + 0.5f, width, height);
     for (int bounce = 0; bounce < 16; ++bounce) {
         SurfaceHit hit;
+        Bsdf scratch;
         if (!scene.intersect(ray, &hit)) {
             *why = "the pixel's ray leaves the scene";
             return -1;
         }
-        const Bsdf& bsdf = scene.bsdfs[hit.bsdf];
+        const Bsdf& bsdf = scene_bsdf_at(scene, hit, &scratch);
         const Vec3 wi = -ray.d;
         if (!bsdf_is_delta(bsdf)) {
             const Vec3 n_side = dot(hit.ng, wi) >= 0 ? hit.ng : -hit.ng;

@@ -22,9 +22,10 @@ bool camera_cache(const Scene& scene, const Camera& cam, float fx, float fy, int
                   Rng& rng, Vec3* position, Vec3* normal) {
     Ray ray = camera_ray(cam, fx, fy, w, h);
     SurfaceHit hit;
+    Bsdf scratch;
     for (int bounce = 0; bounce <= max_specular; ++bounce) {
         if (!scene.intersect(ray, &hit)) return false;
-        const Bsdf& b = scene.bsdfs[hit.bsdf];
+        const Bsdf& b = scene_bsdf_at(scene, hit, &scratch);
         if (!bsdf_is_delta(b)) {
             *position = hit.p;
             *normal = dot(hit.ng, ray.d) < 0 ? hit.ng : -hit.ng;

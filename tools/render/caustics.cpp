@@ -32,8 +32,8 @@ bool CausticTracer::possible(const Scene& scene) {
 // beta is flux through the geometric surface, i.e. radiance x |cos_g(wo)| dA dw. Film position u (in
 // pixels) and surface area relate as du = pixels_per_plane_area |cos_g(wi)| / (d^2 cos^3 theta) dA, theta
 // the angle to the view axis. So the splat is beta f / |cos_g(wo)| x that factor x the filter density.
-void CausticTracer::splat(const SurfaceHit& hit, Vec3 w_light, RGB beta, std::vector<CausticSplat>& out,
-                          PathCounters& counters, bool* bad) const {
+void CausticTracer::splat(const SurfaceHit& hit, const Bsdf& bsdf, Vec3 w_light, RGB beta,
+                          std::vector<CausticSplat>& out, PathCounters& counters, bool* bad) const {
     const Vec3 wo = hit.frame.to_local(w_light);
     if (!(dot(w_light, hit.ng) * wo.z > 0)) return;  // the camera path's consistent_side for its continuation
     const Vec3 to_cam = camera_.origin - hit.p;
@@ -51,7 +51,7 @@ void CausticTracer::splat(const SurfaceHit& hit, Vec3 w_light, RGB beta, std::ve
     const int x0 = std::max(0, int(std::ceil(fx - r - 0.5f))), x1 = std::min(width_ - 1, int(std::floor(fx + r - 0.5f)));
     const int y0 = std::max(0, int(std::ceil(fy - r - 0.5f))), y1 = std::min(height_ - 1, int(std::floor(fy + r - 0.5f)));
     if (x0 > x1 || y0 > y1) return;
-    const RGB f = bsdf_eval(scene_.bsdfs[hit.bsdf], wi, wo);
+    const RGB f = bsdf_eval(bsdf, wi, wo);
     if (is_black(f)) return;
     // Visible from the camera: the camera ray starts at the near plane, so the segment ends there.
     ++counters.rays;
@@ -90,16 +90,17 @@ bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSpla
     ray.o = env ? e.p : offset_ray_origin(e.p, e.n, e.d, scene_.scale());
     ray.d = e.d;
     SurfaceHit hit;
+    Bsdf bsdf_at_hit;  // textured BSDFs evaluated at the current vertex (scene_bsdf_at)
     bool bad = false;
     // depth = edges from the light to the current vertex; a splat there makes a path of depth + 1 edges.
     for (int depth = 1; max_depth_ < 0 || depth + 1 <= max_depth_; ++depth) {
         ++counters.rays;
         if (!scene_.intersect(ray, &hit)) break;
-        const Bsdf& bsdf = scene_.bsdfs[hit.bsdf];
+        const Bsdf& bsdf = scene_bsdf_at(scene_, hit, &bsdf_at_hit);
         const Vec3 w_light = -ray.d;
         const Vec3 wi = hit.frame.to_local(w_light);
         if (wi.z == 0) break;
-        if (depth >= 2 && !bsdf_is_delta(bsdf)) splat(hit, w_light, beta, out, counters, &bad);
+        if (depth >= 2 && !bsdf_is_delta(bsdf)) splat(hit, bsdf, w_light, beta, out, counters, &bad);
         // Only a Dirac event continues the chain: any other makes x1 a later vertex of a path that is not
         // in class C (the path tracer's).
         if (!bsdf_has_delta_lobe(bsdf)) break;

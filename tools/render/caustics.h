@@ -51,8 +51,9 @@ public:
     bool trace(uint64_t seed, uint64_t index, std::vector<CausticSplat>& out, PathCounters& counters) const;
 
 private:
-    void splat(const SurfaceHit& hit, Vec3 w_light, RGB beta, std::vector<CausticSplat>& out, PathCounters& counters,
-               bool* bad) const;
+    // bsdf: the hit's BSDF as scene_bsdf_at resolved it (textures evaluated at the hit).
+    void splat(const SurfaceHit& hit, const Bsdf& bsdf, Vec3 w_light, RGB beta, std::vector<CausticSplat>& out,
+               PathCounters& counters, bool* bad) const;
     const Scene& scene_;
     const Camera& camera_;
     int width_, height_;

@@ -56,6 +56,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
     Vec3 prev_p = ray.o;
     float eta_scale = 1.0f;    // product of relative IORs^2 crossed, for Russian roulette (Mitsuba)
     SurfaceHit hit;
+    Bsdf bsdf_at_hit;          // textured BSDFs evaluated at the current vertex (scene_bsdf_at)
     int guided_vertices = 0;   // vertices at which a cache was looked up so far
     bool caustic_chain = false;  // so far: a non-Dirac event at the first vertex, Dirac ones after it
     // Hybrid caches: the vertices a cache served, each with what it needs to turn the radiance the path
@@ -102,7 +103,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             break;
         }
         Vec3 wi_world = -ray.d;
-        const Bsdf& bsdf = scene.bsdfs[hit.bsdf];
+        const Bsdf& bsdf = scene_bsdf_at(scene, hit, &bsdf_at_hit);
         const bool delta_only = bsdf_is_delta(bsdf);
         const bool guided_here = guide && !delta_only && guided_vertices < ps.guide_vertices && guidable(bsdf);
         // A guided vertex's first load, its grid slot, starts here (its emission and light sample run

@@ -1,0 +1,247 @@
+// Textured BSDF parameters end to end: the scene reader turns nested <texture>s, top-level textures
+// referenced by <ref name=... id=...>, textures inside twosided and `scale` wrappers into Scene::textures
+// and Bsdf::tex_* (one Texture per distinct texture, one decode per file); Scene::intersect gives the
+// hit's uv; scene_bsdf_at evaluates the textures there (and leaves untextured BSDFs alone, by
+// reference); a render of a textured rectangle under a constant environment shows each pixel's texel.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "formats/png.h"
+#include "formats/scene_xml.h"
+#include "libcommon/scene.h"
+#include "libcommon/spectrum.h"
+#include "libcommon/texture.h"
+#include "tools/render/integrator.h"
+
+namespace fs = std::filesystem;
+
+namespace iris {
+namespace {
+
+class TempDir {
+public:
+    TempDir() {
+        static std::atomic<int> counter{0};
+        path_ = fs::temp_directory_path() / ("iris_textured_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+        fs::remove_all(path_);
+        fs::create_directories(path_);
+    }
+    ~TempDir() {
+        std::error_code ec;
+        fs::remove_all(path_, ec);
+    }
+    std::string write(const std::string& name, const std::string& text) const {
+        std::ofstream(path_ / name, std::ios::binary) << text;
+        return (path_ / name).string();
+    }
+    std::string operator()(const std::string& name) const { return (path_ / name).string(); }
+
+private:
+    fs::path path_;
+};
+
+// A 2 x 2 PNG, 8-bit values k / 255 as given (sRGB-encoded by convention): rows top to bottom.
+const float kTexels[12] = {200 / 255.0f, 40 / 255.0f, 40 / 255.0f,   40 / 255.0f, 200 / 255.0f, 40 / 255.0f,
+                           40 / 255.0f, 40 / 255.0f, 200 / 255.0f,   230 / 255.0f, 230 / 255.0f, 60 / 255.0f};
+
+RGB texel_linear(int x, int y) {
+    const float* t = &kTexels[3 * (2 * y + x)];
+    return RGB(srgb_to_linear(t[0]), srgb_to_linear(t[1]), srgb_to_linear(t[2]));
+}
+
+void write_texture(const TempDir& d, const std::string& name) {
+    write_png(d(name), 2, 2, std::vector<float>(std::begin(kTexels), std::end(kTexels)));
+}
+
+std::string scene_text(const std::string& body, int width = 16, int height = 16) {
+    return "<?xml version=\"1.0\"?>\n<scene version=\"0.5.0\">\n"
+           "  <sensor type=\"perspective\">\n    <float name=\"fov\" value=\"30\"/>\n"
+           "    <transform name=\"toWorld\"><lookAt origin=\"0, 0, 5\" target=\"0, 0, 0\" up=\"0, 1, 0\"/></transform>\n"
+           "    <film type=\"hdrfilm\"><integer name=\"width\" value=\"" + std::to_string(width) +
+           "\"/><integer name=\"height\" value=\"" + std::to_string(height) + "\"/></film>\n  </sensor>\n" +
+           body + "</scene>\n";
+}
+
+Scene load_quiet(const std::string& path) {
+    std::vector<std::string> warnings;
+    SceneLoadOptions o;
+    o.warnings = &warnings;
+    return load_scene(path, o);
+}
+
+void expect_rgb(RGB c, RGB want, float tol, const std::string& what = "") {
+    EXPECT_NEAR(c.r, want.r, tol) << what;
+    EXPECT_NEAR(c.g, want.g, tol) << what;
+    EXPECT_NEAR(c.b, want.b, tol) << what;
+}
+
+TEST(TexturedBsdf, NestedAndReferencedTexturesParseAndShare) {
+    TempDir d;
+    write_texture(d, "wood.png");
+    const std::string path = d.write("s.xml", scene_text(
+        "  <texture type=\"bitmap\" id=\"wood\">\n    <string name=\"filename\" value=\"wood.png\"/>\n"
+        "    <string name=\"filterType\" value=\"nearest\"/>\n  </texture>\n"
+        "  <bsdf type=\"twosided\" id=\"floor\">\n    <bsdf type=\"diffuse\">\n"
+        "      <ref name=\"reflectance\" id=\"wood\"/>\n    </bsdf>\n  </bsdf>\n"
+        // A rectangle with the nested texture: the same file and options as "wood", so the same Texture.
+        "  <shape type=\"rectangle\" id=\"a\">\n    <bsdf type=\"diffuse\">\n"
+        "      <texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"wood.png\"/>"
+        "<string name=\"filterType\" value=\"nearest\"/></texture>\n    </bsdf>\n  </shape>\n"
+        "  <shape type=\"rectangle\" id=\"b\"><ref id=\"floor\"/></shape>\n"
+        // The same file scaled in uv: a second Texture with the same texels, the file decoded once.
+        "  <shape type=\"rectangle\" id=\"c\">\n    <bsdf type=\"plastic\">\n"
+        "      <texture type=\"bitmap\" name=\"diffuseReflectance\"><string name=\"filename\" value=\"wood.png\"/>"
+        "<float name=\"uscale\" value=\"4\"/></texture>\n"
+        "      <texture type=\"checkerboard\" name=\"specularReflectance\"><rgb name=\"color0\" value=\"0.9\"/>"
+        "<float name=\"uvscale\" value=\"3\"/></texture>\n    </bsdf>\n  </shape>\n"
+        "  <shape type=\"rectangle\" id=\"d\">\n    <bsdf type=\"roughconductor\">\n"
+        "      <texture type=\"scale\" name=\"specularReflectance\"><float name=\"scale\" value=\"0.5\"/>"
+        "<ref id=\"wood\"/></texture>\n"
+        "      <texture type=\"checkerboard\" name=\"alpha\"><rgb name=\"color0\" value=\"0.3\"/>"
+        "<rgb name=\"color1\" value=\"0.1, 0.2, 0.3\"/></texture>\n    </bsdf>\n  </shape>\n"
+        "  <emitter type=\"constant\"/>\n"));
+    Scene s = load_quiet(path);
+    ASSERT_EQ(s.meshes.size(), 4u);
+    const Bsdf& a = s.bsdfs[s.meshes[0].bsdf];
+    const Bsdf& b = s.bsdfs[s.meshes[1].bsdf];
+    const Bsdf& c = s.bsdfs[s.meshes[2].bsdf];
+    const Bsdf& m = s.bsdfs[s.meshes[3].bsdf];
+    EXPECT_TRUE(a.textured && b.textured && c.textured && m.textured);
+    EXPECT_TRUE(b.two_sided);
+    ASSERT_GE(a.tex_diffuse, 0);
+    EXPECT_EQ(a.tex_diffuse, b.tex_diffuse) << "the nested texture equals the referenced one: shared";
+    EXPECT_EQ(a.tex_specular, -1);
+    // wood, wood scaled in u, the checkerboard, the scaled copy, the alpha checkerboard.
+    EXPECT_EQ(s.textures.size(), 5u);
+    const Texture& wood = s.textures[size_t(a.tex_diffuse)];
+    ASSERT_EQ(wood.width, 2);
+    ASSERT_EQ(wood.height, 2);
+    EXPECT_EQ(wood.filter, TextureFilter::Nearest);
+    for (int y = 0; y < 2; ++y)
+        for (int x = 0; x < 2; ++x) expect_rgb(wood.texels[size_t(2 * y + x)], texel_linear(x, y), 1e-6f, "texel");
+    ASSERT_GE(c.tex_diffuse, 0);
+    EXPECT_NE(c.tex_diffuse, a.tex_diffuse);
+    EXPECT_EQ(s.textures[size_t(c.tex_diffuse)].uscale, 4.0f);
+    EXPECT_EQ(s.textures[size_t(c.tex_diffuse)].texels.size(), 4u);
+    const Texture& checker = s.textures[size_t(c.tex_specular)];
+    EXPECT_EQ(checker.type, TextureType::Checkerboard);
+    EXPECT_EQ(checker.uscale, 3.0f);
+    EXPECT_EQ(checker.vscale, 3.0f);
+    expect_rgb(checker.color0, RGB(0.9f), 0);
+    expect_rgb(checker.color1, RGB(0.2f), 0);  // Mitsuba's default
+    const Texture& half = s.textures[size_t(m.tex_specular)];
+    expect_rgb(half.texels[3], texel_linear(1, 1) * 0.5f, 1e-6f, "scale texture");
+    EXPECT_EQ(m.tex_alpha_u, m.tex_alpha_v) << "an isotropic textured alpha drives both";
+
+    // At the hit: the rough conductor's alpha is the texture's mean, its reflectance the scaled texel.
+    SurfaceHit hit;
+    hit.bsdf = s.meshes[3].bsdf;
+    hit.uv = Vec2{0.1f, 0.1f};  // checkerboard cell (0, 0): color0; bitmap texel (0, 0)
+    Bsdf scratch;
+    const Bsdf& r = scene_bsdf_at(s, hit, &scratch);
+    EXPECT_EQ(&r, &scratch);
+    EXPECT_FLOAT_EQ(r.alpha_u, 0.3f);
+    hit.uv = Vec2{0.6f, 0.1f};  // cell (1, 0): color1, mean 0.2
+    EXPECT_NEAR(scene_bsdf_at(s, hit, &scratch).alpha_v, 0.2f, 1e-6f);
+
+    // The plastic's sampling weight follows the reflectances at the hit.
+    hit.bsdf = s.meshes[2].bsdf;
+    hit.uv = Vec2{0.01f, 0.01f};
+    const Bsdf& p = scene_bsdf_at(s, hit, &scratch);
+    const float ls = luminance(RGB(0.9f)), ld = luminance(p.diffuse);
+    EXPECT_NEAR(p.specular_sampling_weight, ls / (ls + ld), 1e-6f);
+    EXPECT_NEAR(p.fdr_int, c.fdr_int, 0) << "the IOR-only constant is copied, not recomputed";
+}
+
+TEST(TexturedBsdf, UntexturedBsdfIsReturnedByReference) {
+    TempDir d;
+    Scene s = load_quiet(d.write("s.xml", scene_text("  <shape type=\"rectangle\"/>\n  <emitter type=\"constant\"/>\n")));
+    SurfaceHit hit;
+    hit.bsdf = s.meshes[0].bsdf;
+    Bsdf scratch;
+    EXPECT_FALSE(s.bsdfs[hit.bsdf].textured);
+    EXPECT_EQ(&scene_bsdf_at(s, hit, &scratch), &s.bsdfs[hit.bsdf]);
+}
+
+TEST(TexturedBsdf, HitUvOnTheRectangleIsMitsubas) {
+    TempDir d;
+    write_texture(d, "t.png");
+    // Mitsuba's rectangle: [-1, 1]^2 at z = 0, uv = ((x + 1) / 2, (y + 1) / 2); scaled by 2 in x here.
+    Scene s = load_quiet(d.write("s.xml", scene_text(
+        "  <shape type=\"rectangle\">\n    <transform name=\"toWorld\"><scale x=\"2\"/></transform>\n"
+        "    <bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
+        "<string name=\"filename\" value=\"t.png\"/></texture></bsdf>\n  </shape>\n  <emitter type=\"constant\"/>\n")));
+    for (Vec2 xy : {Vec2{0.5f, -0.5f}, Vec2{-1.9f, 0.8f}, Vec2{1.2f, 0.3f}}) {
+        Ray ray;
+        ray.o = Vec3(xy.x, xy.y, 3);
+        ray.d = Vec3(0, 0, -1);
+        SurfaceHit hit;
+        ASSERT_TRUE(s.intersect(ray, &hit));
+        EXPECT_NEAR(hit.uv.x, (xy.x / 2 + 1) / 2, 1e-6f);
+        EXPECT_NEAR(hit.uv.y, (xy.y + 1) / 2, 1e-6f);
+    }
+}
+
+// A camera looking at a textured rectangle under a constant environment of radiance 1: a diffuse
+// surface seen from anywhere reflects its reflectance times 1, so each pixel's mean is the texel its
+// centre sees (taken from the uv at the pixel's centre). Pixels near a texel edge are skipped (the
+// pixel filter blends neighbours there); the others must agree within 5 standard errors of the render
+// (variance layer) plus 1e-3 for the film filter's tails.
+TEST(TexturedBsdf, DiffuseBitmapRendersTheTexelColour) {
+    TempDir d;
+    write_texture(d, "t.png");
+    const int W = 24, H = 24;
+    Scene s = load_quiet(d.write("s.xml", scene_text(
+        "  <shape type=\"rectangle\">\n    <transform name=\"toWorld\"><scale value=\"2\"/></transform>\n"
+        "    <bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
+        "<string name=\"filename\" value=\"t.png\"/><string name=\"filterType\" value=\"nearest\"/></texture></bsdf>\n"
+        "  </shape>\n  <emitter type=\"constant\"/>\n", W, H)));
+    RenderOptions o;
+    o.spp = 64;
+    o.threads = 1;
+    o.seed = 3;
+    o.quiet = true;
+    o.variance_layer = true;
+    RenderStats stats;
+    const Image img = render_image(s, o, &stats);
+    Camera cam = s.camera;
+    camera_prepare(cam, W, H);
+    const char* names[3] = {"R", "G", "B"};
+    int checked = 0;
+    for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x) {
+            // The texel under the pixel centre and under points 2 pixels away: all equal = an interior pixel.
+            int texel = -2;
+            bool interior = true;
+            for (Vec2 off : {Vec2{0, 0}, Vec2{-2, -2}, Vec2{2, -2}, Vec2{-2, 2}, Vec2{2, 2}}) {
+                SurfaceHit hit;
+                if (!s.intersect(camera_ray(cam, float(x) + 0.5f + off.x, float(y) + 0.5f + off.y, W, H), &hit)) {
+                    interior = false;
+                    break;
+                }
+                const int t = int(std::floor(hit.uv.x * 2)) + 2 * int(std::floor(hit.uv.y * 2));
+                if (texel != -2 && t != texel) interior = false;
+                texel = t;
+            }
+            if (!interior) continue;
+            const RGB want = texel_linear(texel % 2, texel / 2);
+            const size_t i = size_t(y) * W + size_t(x);
+            for (int c = 0; c < 3; ++c) {
+                const float mean = img.data[size_t(img.channel_index(names[c]))][i];
+                const float var = img.data[size_t(img.channel_index(std::string("variance.") + names[c]))][i];
+                EXPECT_NEAR(mean, want[c], 5.0f * std::sqrt(var) + 1e-3f) << "pixel " << x << "," << y << " channel " << c;
+            }
+            ++checked;
+        }
+    EXPECT_GT(checked, W * H / 4) << "the rectangle must cover interior pixels of all four texels";
+}
+
+}  // namespace
+}  // namespace iris
