@@ -32,6 +32,9 @@ public:
                 if (k.n >= 0 && size_t(k.n) >= mesh_.normals.size())
                     fail(mesh_.face_lines[f], "face refers to normal " + std::to_string(k.n + 1) + " but the file has " +
                                                   std::to_string(mesh_.normals.size()));
+                if (k.t >= 0 && size_t(k.t) >= mesh_.texcoords.size())
+                    fail(mesh_.face_lines[f], "face refers to texture coordinate " + std::to_string(k.t + 1) +
+                                                  " but the file has " + std::to_string(mesh_.texcoords.size()));
             }
         return std::move(mesh_);
     }
@@ -104,9 +107,10 @@ private:
         for (std::string_view tok = next_token(rest); !tok.empty(); tok = next_token(rest), ++n) {
             // v | v/vt | v//vn | v/vt/vn
             size_t s1 = tok.find('/');
-            std::string_view vs = tok.substr(0, s1), ns;
+            std::string_view vs = tok.substr(0, s1), ts, ns;
             if (s1 != std::string_view::npos) {
                 size_t s2 = tok.find('/', s1 + 1);
+                ts = tok.substr(s1 + 1, s2 == std::string_view::npos ? std::string_view::npos : s2 - s1 - 1);
                 if (s2 != std::string_view::npos) {
                     ns = tok.substr(s2 + 1);
                     if (ns.find('/') != std::string_view::npos) fail("bad face corner \"" + std::string(tok) + "\"");
@@ -115,6 +119,7 @@ private:
             }
             ObjMesh::Corner c;
             c.v = uint32_t(index(vs, mesh_.positions.size(), "vertex"));
+            c.t = ts.empty() ? -1 : int32_t(index(ts, mesh_.texcoords.size(), "texture coordinate"));
             c.n = ns.empty() ? -1 : int32_t(index(ns, mesh_.normals.size(), "normal"));
             mesh_.corners.push_back(c);
         }
@@ -134,11 +139,21 @@ private:
             mesh_.normals.push_back(vec3(s, "normal", false));
         } else if (key == "f") {
             face(s);
-        } else if (key == "vt" || key == "vp" || key == "o" || key == "g" || key == "s" || key == "usemtl" ||
+        } else if (key == "vt") {
+            // "vt u [v [w]]": v defaults to 0 (the OBJ specification), w (3D textures) is not used.
+            Vec2 t;
+            std::string_view tok = next_token(s);
+            if (tok.empty()) fail("texture coordinate needs at least u");
+            t.x = number(tok, "texture coordinate");
+            if (tok = next_token(s); !tok.empty()) t.y = number(tok, "texture coordinate");
+            if (tok = next_token(s); !tok.empty()) number(tok, "texture coordinate");
+            if (!next_token(s).empty()) fail("too many values in texture coordinate");
+            mesh_.texcoords.push_back(t);
+        } else if (key == "vp" || key == "o" || key == "g" || key == "s" || key == "usemtl" ||
                    key == "mtllib" || key == "l" || key == "p" || key == "mg" || key == "maplib" ||
                    key == "usemap" || key == "lod" || key == "shadow_obj" || key == "trace_obj" ||
                    key == "bevel" || key == "c_interp" || key == "d_interp") {
-            // Texture coordinates, grouping, materials, lines and points: nothing iris renders.
+            // Parameter-space vertices, grouping, materials, lines and points: nothing iris renders.
         } else {
             fail("unsupported OBJ statement \"" + std::string(key) + "\"");
         }

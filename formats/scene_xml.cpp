@@ -1442,6 +1442,9 @@ private:
                     fail(src, find(p, "toWorld")->line, "a sphere's toWorld must scale uniformly (no shear)");
                 center = m->point(center);
                 radius *= lx;
+                s.axis_x = ax / lx;  // the uv parameterization's frame (Scene::intersect)
+                s.axis_y = ay / ly;
+                s.axis_z = az / lz;
             }
             // As for mesh vertices: a transform can push a valid sphere out of float range.
             if (!is_finite(center) || !(radius > 0) || !std::isfinite(radius))
@@ -1463,13 +1466,10 @@ private:
                 if (!file) fail(src, p.line, "shape \"obj\" needs a filename");
                 if (mesh.name.empty()) mesh.name = *file;
                 const bool face_normals = get_bool(p, "faceNormals", false);
-                load_obj(src, fprop->line, *file, to_world, face_normals, &mesh);
+                const bool flip_tex = get_bool(p, "flipTexCoords", true);
+                load_obj(src, fprop->line, *file, to_world, face_normals, flip_tex, &mesh);
                 if (Prop* m = find(p, "maxSmoothAngle"))
                     fail(src, m->line, "maxSmoothAngle is not supported (give normals in the OBJ or use faceNormals)");
-                ignore = [](const std::string& name) -> const char* {
-                    if (name == "flipTexCoords") return "iris uses no texture coordinates";
-                    return nullptr;
-                };
             } else if (t == "rectangle") {
                 // Mitsuba: [-1,1]^2 in the z = 0 plane, facing +z.
                 if (mesh.name.empty()) mesh.name = "rectangle";
@@ -1478,25 +1478,27 @@ private:
                 build_mesh(src, p.line, pos, {}, idx, to_world, &mesh);
                 mesh.uvs = {Vec2{0, 0}, Vec2{1, 0}, Vec2{1, 1}, Vec2{0, 1}};  // as Mitsuba's rectangle
             } else if (t == "cube") {
-                // Mitsuba: [-1,1]^3 with outward, flat faces.
+                // Mitsuba's cube: [-1,1]^3, flat faces, each face mapped onto [0,1]^2 in uv. Its corners
+                // in Mitsuba's order (faces -y, +y, +x, +z, -x, -z; triangles (0,1,2), (3,0,2) per face,
+                // counter-clockwise seen from outside), each face's four corners at uv (0,1), (1,1),
+                // (1,0), (0,0), so that a texture lands on every face as in Mitsuba.
                 if (mesh.name.empty()) mesh.name = "cube";
+                static const signed char kCorners[24][3] = {
+                    {1, -1, -1}, {1, -1, 1},  {-1, -1, 1}, {-1, -1, -1}, {1, 1, -1},  {-1, 1, -1}, {-1, 1, 1},  {1, 1, 1},
+                    {1, -1, -1}, {1, 1, -1},  {1, 1, 1},   {1, -1, 1},   {1, -1, 1},  {1, 1, 1},   {-1, 1, 1},  {-1, -1, 1},
+                    {-1, -1, 1}, {-1, 1, 1},  {-1, 1, -1}, {-1, -1, -1}, {1, 1, -1},  {1, -1, -1}, {-1, -1, -1}, {-1, 1, -1}};
+                static const Vec2 kFaceUv[4] = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
                 std::vector<Vec3> pos;
+                std::vector<Vec2> uv;
                 std::vector<uint32_t> idx;
-                for (int axis = 0; axis < 3; ++axis)
-                    for (float side : {-1.0f, 1.0f}) {
-                        Vec3 nrm(0.0f), u(0.0f), v(0.0f);
-                        nrm[axis] = side;
-                        u[(axis + 1) % 3] = 1;
-                        v[(axis + 2) % 3] = 1;
-                        if (dot(cross(u, v), nrm) < 0) std::swap(u, v);  // counter-clockwise seen from outside
-                        uint32_t base = uint32_t(pos.size());
-                        pos.push_back(nrm - u - v);
-                        pos.push_back(nrm + u - v);
-                        pos.push_back(nrm + u + v);
-                        pos.push_back(nrm - u + v);
-                        for (uint32_t k : {0u, 1u, 2u, 0u, 2u, 3u}) idx.push_back(base + k);
-                    }
+                for (int i = 0; i < 24; ++i) {
+                    pos.push_back(Vec3(kCorners[i][0], kCorners[i][1], kCorners[i][2]));
+                    uv.push_back(kFaceUv[i % 4]);
+                }
+                for (uint32_t f = 0; f < 6; ++f)
+                    for (uint32_t k : {0u, 1u, 2u, 3u, 0u, 2u}) idx.push_back(4 * f + k);
                 build_mesh(src, p.line, pos, {}, idx, to_world, &mesh);
+                mesh.uvs = std::move(uv);
             } else if (t == "disk") {
                 // Mitsuba: the unit disk in the z = 0 plane, facing +z. Tessellated (kDiskSegments
                 // triangles) with the radius chosen so that the polygon's area is exactly pi, so that
@@ -1506,13 +1508,23 @@ private:
                 constexpr int kDiskSegments = 512;
                 const double step = 2 * double(kPi) / kDiskSegments;
                 const double r = std::sqrt(double(kPi) / (0.5 * kDiskSegments * std::sin(step)));
-                std::vector<Vec3> pos = {Vec3(0.0f)};
-                std::vector<Vec2> uv = {Vec2{0, 0}};
+                // uv = Mitsuba's (radius, angle / 2 pi). Linear interpolation over a fan cannot give the
+                // angle near the centre from one centre vertex, nor cross the seam at angle 0 = 1: so each
+                // segment has its own centre vertex at its mid-angle, and the rim vertex closing the last
+                // segment is a copy of the first at v = 1. The angle is then off by at most half a
+                // segment (1 / 1024) near the centre and exact on the rim.
+                std::vector<Vec3> pos;
+                std::vector<Vec2> uv;
                 std::vector<uint32_t> idx;
+                for (int i = 0; i <= kDiskSegments; ++i) {
+                    const int k = i % kDiskSegments;  // the same position for i = 0 and i = kDiskSegments
+                    pos.push_back(Vec3(float(r * std::cos(k * step)), float(r * std::sin(k * step)), 0.0f));
+                    uv.push_back(Vec2{1.0f, float(i) / kDiskSegments});
+                }
                 for (int i = 0; i < kDiskSegments; ++i) {
-                    pos.push_back(Vec3(float(r * std::cos(i * step)), float(r * std::sin(i * step)), 0.0f));
-                    uv.push_back(Vec2{1.0f, float(i) / kDiskSegments});  // Mitsuba's (radius, angle / 2 pi)
-                    idx.insert(idx.end(), {0u, uint32_t(1 + i), uint32_t(1 + (i + 1) % kDiskSegments)});
+                    pos.push_back(Vec3(0.0f));
+                    uv.push_back(Vec2{0.0f, (float(i) + 0.5f) / kDiskSegments});
+                    idx.insert(idx.end(), {uint32_t(pos.size() - 1), uint32_t(i), uint32_t(i + 1)});
                 }
                 build_mesh(src, p.line, pos, {}, idx, to_world, &mesh);
                 mesh.uvs = std::move(uv);
@@ -1576,8 +1588,11 @@ private:
     }
 
     // Reads an OBJ file into `mesh` (world space). Mesh errors name the XML line of the filename.
+    // Texture coordinates as Mitsuba 0.5/0.6's OBJ loader reads them: with flipTexCoords (its default,
+    // true) v' = 1 - v, since OBJ's v = 0 is the image's bottom row and Mitsuba's texture lookup has
+    // v = 0 at the top; without it, as written. Used when every face corner has one; otherwise none.
     void load_obj(const Source& src, int line, const std::string& file, const Transform& to_world, bool face_normals,
-                  Mesh* mesh) {
+                  bool flip_tex, Mesh* mesh) {
         fs::path path = resolve(src, file);
         std::string text;
         if (!read_file(path, &text))
@@ -1603,18 +1618,46 @@ private:
             }
         }
 
-        // One vertex per distinct (position, normal) pair, as Mitsuba's OBJ loader does.
-        std::unordered_map<uint64_t, uint32_t> remap;
+        bool use_uvs = !obj.texcoords.empty();
+        if (use_uvs) {
+            size_t missing = 0;
+            for (const ObjMesh::Corner& c : obj.corners) missing += c.t < 0;
+            if (missing) {
+                warn(src, line, "mesh " + quote(file) + ": " + std::to_string(missing) +
+                                    " face corners have no texture coordinate; the mesh gets none (a texture reads uv = 0)");
+                use_uvs = false;
+            }
+        }
+
+        // One vertex per distinct (position, normal, texture coordinate), as Mitsuba's OBJ loader does.
+        struct Key {
+            uint32_t v;
+            int32_t n, t;
+            bool operator==(const Key& o) const { return v == o.v && n == o.n && t == o.t; }
+        };
+        struct KeyHash {
+            size_t operator()(const Key& k) const {
+                return size_t((uint64_t(k.v) * 0x9e3779b97f4a7c15ULL) ^ (uint64_t(uint32_t(k.n)) * 0xc2b2ae3d27d4eb4fULL) ^
+                              (uint64_t(uint32_t(k.t)) * 0x165667b19e3779f9ULL));
+            }
+        };
+        std::unordered_map<Key, uint32_t, KeyHash> remap;
         remap.reserve(obj.corners.size());
         std::vector<Vec3> pos, nrm;
+        std::vector<Vec2> uv;
         std::vector<uint32_t> corner_vertex(obj.corners.size());
         for (size_t i = 0; i < obj.corners.size(); ++i) {
             const ObjMesh::Corner& c = obj.corners[i];
-            uint64_t key = (uint64_t(c.v) << 32) | uint32_t(use_normals ? c.n + 1 : 0);
+            const Key key{c.v, use_normals ? c.n : -1, use_uvs ? c.t : -1};
             auto [it, inserted] = remap.emplace(key, uint32_t(pos.size()));
             if (inserted) {
                 pos.push_back(obj.positions[c.v]);
                 if (use_normals) nrm.push_back(obj.normals[size_t(c.n)]);
+                if (use_uvs) {
+                    Vec2 t = obj.texcoords[size_t(c.t)];
+                    if (flip_tex) t.y = 1.0f - t.y;
+                    uv.push_back(t);
+                }
             }
             corner_vertex[i] = it->second;
         }
@@ -1628,6 +1671,7 @@ private:
                 idx.push_back(corner_vertex[c + i + 1]);
             }
         build_mesh(src, line, pos, nrm, idx, to_world, mesh, face_normals, file);
+        mesh->uvs = std::move(uv);
     }
 
     // Reads a PLY or Mitsuba serialized mesh into `mesh` (world space). Errors name the XML line of
@@ -1738,6 +1782,11 @@ private:
                 fail(src, p.line, "an instance of a shapegroup with a sphere must scale uniformly (no shear)");
             s.center = m.point(s.center);
             s.radius *= lx;
+            // The instance's rotation composes with the sphere's own frame (its uv parameterization).
+            const Vec3 fx = m.vector(s.axis_x), fy = m.vector(s.axis_y), fz = m.vector(s.axis_z);
+            s.axis_x = fx / length(fx);
+            s.axis_y = fy / length(fy);
+            s.axis_z = fz / length(fz);
             if (!is_finite(s.center) || !(s.radius > 0) || !std::isfinite(s.radius))
                 fail(src, p.line, "an instanced sphere's centre or radius is not finite after toWorld");
             scene_.spheres.push_back(s);

@@ -442,12 +442,18 @@ TEST(MeshFormats, RectangleDiskCubeGeometryAndArea) {
     EXPECT_EQ(disk.name, "d");
     EXPECT_NEAR(triangle_area_sum(disk), float(kPi) * 0.25f, 1e-6f);
     float rmax = 0, rmin = 1e9f;
-    for (size_t i = 1; i < disk.positions.size(); ++i) {
+    size_t centres = 0;  // one centre vertex per segment (its uv carries the segment's angle)
+    for (size_t i = 0; i < disk.positions.size(); ++i) {
         EXPECT_EQ(disk.positions[i].z, 1.0f);
         const float r = std::hypot(disk.positions[i].x, disk.positions[i].y);
+        if (r == 0) {
+            ++centres;
+            continue;
+        }
         rmax = std::max(rmax, r);
         rmin = std::min(rmin, r);
     }
+    EXPECT_EQ(centres, disk.indices.size() / 3);
     EXPECT_NEAR(rmax, 0.5f, 0.5f * 2e-5f);  // rim vertices just outside the circle, edges just inside
     EXPECT_NEAR(rmin, 0.5f, 0.5f * 2e-5f);
     for (size_t t = 0; t < disk.indices.size(); t += 3) {

@@ -243,5 +243,142 @@ TEST(TexturedBsdf, DiffuseBitmapRendersTheTexelColour) {
     EXPECT_GT(checked, W * H / 4) << "the rectangle must cover interior pixels of all four texels";
 }
 
+// OBJ texture coordinates as Mitsuba reads them: flipTexCoords (default true) gives v' = 1 - v; one
+// vertex per distinct (position, normal, uv), so a seam splits a vertex.
+TEST(TexturedBsdf, ObjTexcoordsLoadWithMitsubasFlip) {
+    TempDir d;
+    write_texture(d, "t.png");
+    d.write("q.obj", "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\n"
+                     "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvt 0.25 0.75\n"
+                     "f 1/1 2/2 3/3 4/4\nf 1/5 3/3 4/4\n");
+    auto scene = [&](bool flip_given, bool flip) {
+        std::string extra = flip_given ? std::string("<boolean name=\"flipTexCoords\" value=\"") + (flip ? "true" : "false") + "\"/>" : "";
+        return load_quiet(d.write("s.xml", scene_text(
+            "  <shape type=\"obj\"><string name=\"filename\" value=\"q.obj\"/>" + extra +
+            "<bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"t.png\"/>"
+            "</texture></bsdf></shape>\n  <emitter type=\"constant\"/>\n")));
+    };
+    for (int mode = 0; mode < 3; ++mode) {
+        const bool flip = mode != 2;
+        Scene s = scene(mode > 0, flip);
+        const Mesh& m = s.meshes[0];
+        ASSERT_EQ(m.uvs.size(), m.positions.size());
+        EXPECT_EQ(m.positions.size(), 5u) << "vertex 1 appears with two uvs";
+        // Vertex for position (1, 1): OBJ uv (1, 1).
+        for (size_t i = 0; i < m.positions.size(); ++i) {
+            const Vec3 p = m.positions[i];
+            const Vec2 t = m.uvs[i];
+            if (p.x == 1 && p.y == 1) EXPECT_EQ(t.y, flip ? 0.0f : 1.0f) << mode;
+            if (p.x == 1 && p.y == -1) EXPECT_EQ(t.y, flip ? 1.0f : 0.0f) << mode;
+            if (t.x == 0.25f) EXPECT_EQ(t.y, flip ? 0.25f : 0.75f) << mode;
+        }
+        // At a hit: (0.5, 0.5) on the quad's first triangle fan -> OBJ uv (0.75, 0.75).
+        Ray ray;
+        ray.o = Vec3(0.5f, -0.2f, 3);
+        ray.d = Vec3(0, 0, -1);
+        SurfaceHit hit;
+        ASSERT_TRUE(s.intersect(ray, &hit));
+        EXPECT_NEAR(hit.uv.x, 0.75f, 1e-6f);
+        EXPECT_NEAR(hit.uv.y, flip ? 1.0f - 0.4f : 0.4f, 1e-6f);
+    }
+    // A texture coordinate index past the end is the file's error, naming it.
+    d.write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n");
+    try {
+        load_quiet(d.write("b.xml", scene_text("  <shape type=\"obj\"><string name=\"filename\" value=\"bad.obj\"/></shape>\n")));
+        ADD_FAILURE() << "no error";
+    } catch (const SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("texture coordinate 2"), std::string::npos) << e.what();
+    }
+}
+
+// Mitsuba's cube maps every face onto [0, 1]^2 (corner order of its table); its disk has
+// uv = (radius, angle / 2 pi); its sphere (phi / 2 pi, theta / pi) in the object frame of toWorld.
+TEST(TexturedBsdf, CubeDiskAndSphereUvsAreMitsubas) {
+    TempDir d;
+    write_texture(d, "t.png");
+    const std::string bsdf = "<bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
+                             "<string name=\"filename\" value=\"t.png\"/></texture></bsdf>";
+    Scene s = load_quiet(d.write("s.xml", scene_text(
+        "  <shape type=\"cube\">" + bsdf + "</shape>\n"
+        "  <shape type=\"disk\"><transform name=\"toWorld\"><translate x=\"10\"/></transform>" + bsdf + "</shape>\n"
+        "  <shape type=\"sphere\"><transform name=\"toWorld\"><rotate x=\"1\" angle=\"90\"/><translate x=\"-10\"/></transform>" +
+        bsdf + "</shape>\n  <emitter type=\"constant\"/>\n")));
+    auto uv_at = [&](Vec3 o, Vec3 dir) {
+        Ray ray;
+        ray.o = o;
+        ray.d = dir;
+        SurfaceHit hit;
+        EXPECT_TRUE(s.intersect(ray, &hit));
+        return hit.uv;
+    };
+    // Cube, +z face: corners (1,-1) (1,1) (-1,1) (-1,-1) at uv (0,1) (1,1) (1,0) (0,0): uv = ((y+1)/2, (x+1)/2).
+    Vec2 t = uv_at(Vec3(0.5f, -0.2f, 5), Vec3(0, 0, -1));
+    EXPECT_NEAR(t.x, 0.4f, 1e-6f);
+    EXPECT_NEAR(t.y, 0.75f, 1e-6f);
+    // -y face: corners (1,-1) (1,1) (-1,1) (-1,-1) in (x, z) at the same uvs: uv = ((z+1)/2, (x+1)/2).
+    t = uv_at(Vec3(-0.6f, -5, 0.2f), Vec3(0, 1, 0));
+    EXPECT_NEAR(t.x, 0.6f, 1e-6f);
+    EXPECT_NEAR(t.y, 0.2f, 1e-6f);
+    // Disk: radius 0.5 at 60 degrees (fan interpolation: the radius within 1e-4, the angle within half a segment).
+    t = uv_at(Vec3(10 + 0.25f, 0.5f * std::sqrt(0.75f), 5), Vec3(0, 0, -1));
+    EXPECT_NEAR(t.x, 0.5f, 1e-4f);
+    EXPECT_NEAR(t.y, 1.0f / 6.0f, 1.0f / 1024);
+    // Just below angle 0 (the seam): v near 1, not interpolated back towards 0.
+    t = uv_at(Vec3(10 + 0.8f, -1e-3f, 5), Vec3(0, 0, -1));
+    EXPECT_GT(t.y, 0.999f);
+    // Sphere rotated 90 degrees about x: its pole (+z) lies at world -y, its +y axis at world +z.
+    t = uv_at(Vec3(-10, -5, 0), Vec3(0, 1, 0));
+    EXPECT_NEAR(t.y, 0.0f, 1e-3f);
+    t = uv_at(Vec3(-5, 0, 0), Vec3(-1, 0, 0));  // object +x: phi = 0, theta = 90 degrees
+    EXPECT_NEAR(t.x, 0.0f, 1e-4f);
+    EXPECT_NEAR(t.y, 0.5f, 1e-4f);
+    t = uv_at(Vec3(-10, 0, 5), Vec3(0, 0, -1));  // object +y: phi = 90 degrees
+    EXPECT_NEAR(t.x, 0.25f, 1e-4f);
+    EXPECT_NEAR(t.y, 0.5f, 1e-4f);
+}
+
+// Stage files are matched to a scene by its fingerprint: a texture file's bytes are part of it.
+TEST(TexturedBsdf, FingerprintCoversTextureFiles) {
+    TempDir d;
+    write_texture(d, "t.png");
+    const std::string xml = d.write("s.xml", scene_text(
+        "  <shape type=\"rectangle\"><bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
+        "<string name=\"filename\" value=\"t.png\"/></texture></bsdf></shape>\n  <emitter type=\"constant\"/>\n"));
+    const std::string a = load_quiet(xml).fingerprint;
+    EXPECT_EQ(load_quiet(xml).fingerprint, a);
+    std::vector<float> other(std::begin(kTexels), std::end(kTexels));
+    other[4] = 41 / 255.0f;  // one texel's green one step brighter
+    write_png(d("t.png"), 2, 2, other);
+    EXPECT_NE(load_quiet(xml).fingerprint, a);
+}
+
+TEST(TexturedBsdf, TextureErrorsNameTheParameter) {
+    TempDir d;
+    write_texture(d, "t.png");
+    auto error_of = [&](const std::string& bsdf_body) -> std::string {
+        try {
+            load_quiet(d.write("e.xml", scene_text("  <shape type=\"rectangle\">\n" + bsdf_body + "\n  </shape>\n")));
+        } catch (const SceneError& e) {
+            return e.what();
+        }
+        return "(no error)";
+    };
+    const std::string tex = "<texture type=\"bitmap\" name=\"NAME\"><string name=\"filename\" value=\"t.png\"/></texture>";
+    auto with = [&](const std::string& name) {
+        std::string t = tex;
+        return t.replace(t.find("NAME"), 4, name);
+    };
+    EXPECT_NE(error_of("<bsdf type=\"diffuse\"><rgb name=\"reflectance\" value=\"0.5\"/>" + with("reflectance") + "</bsdf>")
+                  .find("given twice"), std::string::npos);
+    EXPECT_NE(error_of("<bsdf type=\"conductor\">" + with("eta") + "</bsdf>").find("\"eta\" of bsdf \"conductor\" cannot be a texture"),
+              std::string::npos);
+    EXPECT_NE(error_of("<bsdf type=\"diffuse\">" + with("reflectanse") + "</bsdf>").find("\"reflectanse\""), std::string::npos);
+    EXPECT_NE(error_of("<bsdf type=\"diffuse\"><ref name=\"reflectance\" id=\"nope\"/></bsdf>").find("undefined reference \"nope\""),
+              std::string::npos);
+    EXPECT_NE(error_of("<bsdf type=\"roughconductor\">" + with("alpha") + "<float name=\"alphaU\" value=\"0.1\"/>"
+                       "<float name=\"alphaV\" value=\"0.1\"/></bsdf>").find("either alpha or alphaU/alphaV"),
+              std::string::npos);
+}
+
 }  // namespace
 }  // namespace iris
