@@ -31,6 +31,7 @@ def main():
     n = dataset(path, "/normal", "<f4", 3)
     power = dataset(path, "/power", "<f4", 3).sum(axis=1)
     bounces = dataset(path, "/bounces", "u1", 1)
+    caustic = dataset(path, "/caustic", "u1", 1) == 1
     paths = attribute(path, "emitted_paths")
     # A photon is inside when a point 1 cm off its surface, on the side it arrived from, is in the air
     # of the room or of the window opening (not in the wall's solid, not outside).
@@ -45,6 +46,8 @@ def main():
     print(f"paths whose first hit is inside   {(inside & first).sum()} ({100 * (inside & first).sum() / paths:.2f} % of emitted)")
     print(f"first hits outside (wasted)       {(~inside & first).sum()} ({100 * (~inside & first).sum() / paths:.2f} % of emitted)")
     print(f"photon power inside / all stored  {power[inside].sum() / power.sum():.4f}")
+    print(f"caustic photons inside            {(inside & caustic).sum()} (after the glass ball; "
+          f"{(inside & caustic & (bounces == 2)).sum()} of them straight from it: sun, two refractions, hit)")
 
 
 if __name__ == "__main__":
