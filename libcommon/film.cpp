@@ -36,6 +36,10 @@ FilterSampler::FilterSampler(const FilmSettings& film) : film_(film) {
     }
     cdf_[kFilterBins] = 1.0f;
     norm1d_ = float(total);
+    // (g / kGuideBuckets is exact in float: the bucket count is a power of two.)
+    guide_.resize(kGuideBuckets + 1);
+    for (int g = 0; g <= kGuideBuckets; ++g)
+        guide_[g] = uint16_t(upper_bound_index(cdf_.data(), cdf_.size(), float(g) / kGuideBuckets));
 }
 
 float FilterSampler::density(Vec2 o) const {
@@ -60,7 +64,14 @@ Vec2 FilterSampler::sample(Vec2 u, float* weight) const {
     float out[2];
     float uu[2] = {u.x, u.y};
     for (int k = 0; k < 2; ++k) {
-        int i = int(upper_bound_index(cdf_.data(), cdf_.size(), uu[k])) - 1;
+        // upper_bound_index(cdf_, uu[k]) - 1 without the 10-step search: start at u's bucket's first
+        // candidate and step while the CDF entry is <= u (a few entries: the buckets are uniform in u).
+        const float uk = uu[k];
+        const int g = uk >= 0 ? std::min(kGuideBuckets - 1, int(uk * kGuideBuckets)) : 0;
+        int ub = guide_[g];
+        const int ub_end = guide_[g + 1];
+        while (ub < ub_end && cdf_[ub] <= uk) ++ub;
+        int i = ub - 1;
         i = clamp(i, 0, kFilterBins - 1);
         float span = cdf_[i + 1] - cdf_[i];
         float t = span > 0 ? (uu[k] - cdf_[i]) / span : 0.5f;

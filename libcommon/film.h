@@ -31,6 +31,11 @@ private:
     float floor_ = 0;        // the Gaussian's value at the radius, subtracted so the filter ends at zero
     std::vector<float> cdf_;  // piecewise-constant tabulation of the 1D filter over [-radius, radius]
     std::vector<float> pdf_;  // per pixel (1D density)
+    // Where sample's search starts and ends for u in bucket g = floor(u kGuideBuckets): guide_[g] = the
+    // number of CDF entries <= g / kGuideBuckets (std::upper_bound's answer there), so the answer for u
+    // lies in [guide_[g], guide_[g + 1]] and a short scan finds exactly what the full search would.
+    static constexpr int kGuideBuckets = 256;
+    std::vector<uint16_t> guide_;
     float norm1d_ = 1;        // integral of eval1d over [-radius, radius]
 };
 

@@ -168,11 +168,8 @@ bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2
     Vec2 b = sample_uniform_triangle(u);
     // Same interpolation as Scene::intersect, so a sampled point and a hit point agree.
     Vec3 p = p0 * (1.0f - b.x - b.y) + p1 * b.x + p2 * b.y;
-    Vec3d c = triangle_cross(m, tri);
-    double len = std::sqrt(dot_d(c, c));
-    if (!(len > 0)) return false;  // unreachable: zero-area triangles have weight 0
-    Vec3 n = to_f(scale(c, 1.0 / len));
-    if (m.flip_normals) n = -n;
+    const Vec3 n = l.triangle_normals[tri];
+    if (n.x == 0 && n.y == 0 && n.z == 0) return false;  // unreachable: zero-area triangles have weight 0
     Seen seen = see_area_point(ref, p, n);
     // Triangles are chosen in proportion to area and sampled uniformly, so the area density is
     // 1/total area on every triangle.
@@ -430,6 +427,14 @@ void lights_prepare(Scene& scene) {
                 std::vector<float> areas(m.triangle_count());
                 for (uint32_t t = 0; t < m.triangle_count(); ++t) areas[t] = float(triangle_area(m, t));
                 l.triangles = Distribution1D(areas);
+                l.triangle_normals.assign(m.triangle_count(), Vec3(0.0f));
+                for (uint32_t t = 0; t < m.triangle_count(); ++t) {
+                    const Vec3d c = triangle_cross(m, t);
+                    const double len = std::sqrt(dot_d(c, c));
+                    if (!(len > 0)) continue;
+                    const Vec3 n = to_f(scale(c, 1.0 / len));
+                    l.triangle_normals[t] = m.flip_normals ? -n : n;
+                }
                 l.area = float(l.triangles.total());
                 break;
             }

@@ -60,6 +60,10 @@ struct Light {
     Vec3 position;         // Point/Spot: position
     float area = 0;        // AreaMesh / AreaSphere: total surface area (m^2, world units squared)
     Distribution1D triangles;  // AreaMesh: triangle selection in proportion to area
+    // AreaMesh: each triangle's unit normal (flip_normals applied; zero for a zero-area triangle), computed
+    // once by lights_prepare from the double cross product instead of once per light sample (the same
+    // value sample_mesh computed each time, so the images do not change).
+    std::vector<Vec3> triangle_normals;
     float sampling_weight = 1; // Mitsuba's `samplingWeight` (multiplies the selection weight)
 };
 
