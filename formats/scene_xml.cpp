@@ -1624,7 +1624,7 @@ private:
             for (const ObjMesh::Corner& c : obj.corners) missing += c.t < 0;
             if (missing) {
                 warn(src, line, "mesh " + quote(file) + ": " + std::to_string(missing) +
-                                    " face corners have no texture coordinate; the mesh gets none (a texture reads uv = 0)");
+                                    " face corners have no texture coordinate; the mesh gets none (a texture reads each triangle's barycentrics, as in Mitsuba)");
                 use_uvs = false;
             }
         }

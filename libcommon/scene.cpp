@@ -69,11 +69,15 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* h) const {
         h->bsdf = m.bsdf;
         h->light = m.light;
         // Only where a texture will read it: meshes from PLY files often carry uvs their BSDF ignores.
-        if (!m.uvs.empty() && bsdfs[m.bsdf].textured) {
-            const Vec2 t0 = m.uvs[idx[0]], t1 = m.uvs[idx[1]], t2 = m.uvs[idx[2]];
-            h->uv = Vec2{t0.x * b0 + t1.x * u + t2.x * v, t0.y * b0 + t1.y * u + t2.y * v};
-        } else {
-            h->uv = Vec2{};
+        // A mesh without uvs gets the barycentrics of vertices 1 and 2, as in Mitsuba's TriMesh.
+        h->uv = Vec2{};
+        if (bsdfs[m.bsdf].textured) {
+            if (!m.uvs.empty()) {
+                const Vec2 t0 = m.uvs[idx[0]], t1 = m.uvs[idx[1]], t2 = m.uvs[idx[2]];
+                h->uv = Vec2{t0.x * b0 + t1.x * u + t2.x * v, t0.y * b0 + t1.y * u + t2.y * v};
+            } else {
+                h->uv = Vec2{u, v};
+            }
         }
     } else {
         const Sphere& s = spheres[ref.index];

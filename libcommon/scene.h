@@ -96,8 +96,8 @@ struct SurfaceHit {
     float magnitude = 0;
     // Surface texture coordinates (Mitsuba's its.uv), computed only where the shape's BSDF is textured
     // (elsewhere (0, 0): nothing reads them, and untextured scenes pay nothing): a mesh's per-vertex
-    // uvs interpolated with the barycentrics ((0, 0) for a mesh without uvs, as in Mitsuba), a
-    // sphere's (phi / 2 pi, theta / pi) in its object frame.
+    // uvs interpolated with the barycentrics (for a mesh without uvs the barycentrics of its vertices
+    // 1 and 2, as in Mitsuba), a sphere's (phi / 2 pi, theta / pi) in its object frame.
     Vec2 uv;
 };
 

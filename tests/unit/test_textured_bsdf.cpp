@@ -281,6 +281,23 @@ TEST(TexturedBsdf, ObjTexcoordsLoadWithMitsubasFlip) {
         EXPECT_NEAR(hit.uv.x, 0.75f, 1e-6f);
         EXPECT_NEAR(hit.uv.y, flip ? 1.0f - 0.4f : 0.4f, 1e-6f);
     }
+    // Without vt records: Mitsuba's uv = the barycentrics of the triangle's vertices 1 and 2.
+    d.write("plain.obj", "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nf 1 2 3\n");
+    {
+        Scene s = load_quiet(d.write("p.xml", scene_text(
+            "  <shape type=\"obj\"><string name=\"filename\" value=\"plain.obj\"/>"
+            "<bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\"><string name=\"filename\" value=\"t.png\"/>"
+            "</texture></bsdf></shape>\n  <emitter type=\"constant\"/>\n")));
+        EXPECT_TRUE(s.meshes[0].uvs.empty());
+        Ray ray;
+        ray.o = Vec3(0.5f, -0.25f, 3);
+        ray.d = Vec3(0, 0, -1);
+        SurfaceHit hit;
+        ASSERT_TRUE(s.intersect(ray, &hit));
+        // p = p0 + b1 (p1 - p0) + b2 (p2 - p0) = (-1 + 2 b1 + 2 b2, -1 + 2 b2): b2 = 0.375, b1 = 0.375.
+        EXPECT_NEAR(hit.uv.x, 0.375f, 1e-6f);
+        EXPECT_NEAR(hit.uv.y, 0.375f, 1e-6f);
+    }
     // A texture coordinate index past the end is the file's error, naming it.
     d.write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n");
     try {
