@@ -451,8 +451,7 @@ void bsdf_refresh_weights(Bsdf& b) {
 
 void bsdf_prepare(Bsdf& b) {
     bsdf_refresh_weights(b);
-    b.textured = b.tex_diffuse >= 0 || b.tex_specular >= 0 || b.tex_transmittance >= 0 || b.tex_alpha_u >= 0 ||
-                 b.tex_alpha_v >= 0;
+    b.textured = bsdf_has_textures(b);
     b.inv_eta2 = b.ior > 0 ? 1.0f / (b.ior * b.ior) : 1.0f;
     b.fdr_int = 0.0f;
     if ((b.type == BsdfType::Plastic || b.type == BsdfType::RoughPlastic) && b.ior > 0)

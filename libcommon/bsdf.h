@@ -64,8 +64,14 @@ struct Bsdf {
     float specular_sampling_weight = 0.5f;  // probability of sampling the glossy/specular lobe first
     float fdr_int = 0.0f;                   // diffuse Fresnel reflectance seen from inside the coating
     float inv_eta2 = 1.0f;                  // 1/ior^2
-    bool textured = false;                  // some tex_* >= 0
+    bool textured = false;                  // bsdf_has_textures(), cached for the hot path
 };
+
+// Whether some parameter is a texture (any tex_* >= 0); valid before bsdf_prepare too.
+inline bool bsdf_has_textures(const Bsdf& b) {
+    return b.tex_diffuse >= 0 || b.tex_specular >= 0 || b.tex_transmittance >= 0 || b.tex_alpha_u >= 0 ||
+           b.tex_alpha_v >= 0;
+}
 
 struct BsdfSample {
     Vec3 wo;            // sampled direction, local frame

@@ -79,4 +79,14 @@ TEST(ExportScene, RefusesWhatItCannotTranslate) {
     EXPECT_NE(b.status, 0);
     EXPECT_NE(b.output.find("export-scene: error: --resolution wants WxH"), std::string::npos) << b.output;
     EXPECT_FALSE(std::filesystem::exists(out));
+    // A textured diffuse BSDF: refused, not exported as its mean (the peer would render another picture).
+    const std::string tex = (d.path / "tex.xml").string();
+    std::ofstream(tex) << "<?xml version=\"1.0\"?>\n<scene version=\"0.5.0\">\n"
+                          "  <shape type=\"rectangle\"><bsdf type=\"diffuse\"><texture type=\"checkerboard\" "
+                          "name=\"reflectance\"/></bsdf>\n    <emitter type=\"area\"/></shape>\n"
+                          "  <sensor type=\"perspective\"><film type=\"hdrfilm\"/></sensor>\n</scene>\n";
+    ToolResult t = run_command(tool("export-scene") + " " + tex + " -o " + out);
+    EXPECT_NE(t.status, 0);
+    EXPECT_NE(t.output.find("export-scene: error: " + tex + ": a textured BSDF parameter"), std::string::npos) << t.output;
+    EXPECT_FALSE(std::filesystem::exists(out));
 }

@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
         // A texture is refused rather than exported as its mean: the peer would render a different
         // picture under the same numbers, and the comparison this file exists for would be void.
         for (const iris::Bsdf& b : scene.bsdfs)
-            if (b.textured)
+            if (iris::bsdf_has_textures(b))  // (parse_scene: bsdf_prepare has not run, b.textured is unset)
                 throw std::runtime_error(path + ": a textured BSDF parameter (export-scene writes constant "
                                                 "parameters only)");
         for (const iris::Light& l : scene.lights)
