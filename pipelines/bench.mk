@@ -109,39 +109,49 @@ plots:
 	$(PYTHON) scripts/bench.py plots $(wildcard docs/benchmarks/full*.md docs/benchmarks/quick*.md)
 
 # A peer in the benchmark (issue 25): iris unguided, iris guided (guided.mk's defaults) and Blender Cycles
-# (Debian's package, CPU path tracer, scripts/cycles_render.py) at the same ladder of total wall-clock
-# budgets, interleaved per budget, each against one iris unguided reference per scene; the report is
-# docs/benchmarks/peers.md with a plot per scene (Debian's /usr/bin/python3 has python3-matplotlib).
-#   make -f pipelines/bench.mk peers                       # glass-spheres box at 60/120 s, diffuse box at 10/20/40 s (~15 min + 4 min of references)
-#   make -f pipelines/bench.mk peers PEER_BUDGETS=15,30,60 PEER_REF_TIME=600   # the issue's ladder
+# (Debian's package, CPU path tracer, scripts/cycles_render.py, its Gaussian filter matched to iris's:
+# scripts/filter_profile.py) at the same ladder of total wall-clock budgets, interleaved per budget and
+# repeated PEER_REPEATS times (independent seeds), each against one iris unguided reference per scene that
+# the report checks against Cycles' own renders; the report is docs/benchmarks/peers.md with a plot per scene
+# (Debian's /usr/bin/python3 has python3-matplotlib and NumPy; scripts/exr.py reads the images).
+#   make -f pipelines/bench.mk peers          # the spec glass box at 30/60/120 s, the plain box at 15/30/60 s, 2 repeats (~45 min)
+#   make -f pipelines/bench.mk peers PEER_REPEATS=3 PEER_REF_TIME=900
 # Blender is a benchmark-only dependency (~300 MB with its data): installed here when missing and run as
 # root, never by scripts/install-deps.sh, and no test needs it.
-PEER_SCENES ?= cbox_kugeln:cbox_kugeln.xml cbox_diffuse_boxes:cbox_diffuse_boxes.xml
-PEER_BUDGETS ?= 10,20,40
-# The glass box's guided preprocessing alone took 45 s on the shared machine (2026-12-04): its ladder starts above.
-PEER_BUDGETS_cbox_kugeln ?= 60,120
+# NAME:scene path. The spec boxes: glass_spheres.xml is the thesis's cbox_kugeln.xml (two glass spheres),
+# empty_box.xml the plain box (diffuse walls, no objects).
+PEER_SCENES ?= glass_box:scenes/cbox/glass_spheres.xml plain_box:scenes/cbox/empty_box.xml
+PEER_BUDGETS ?= 15,30,60
+# The glass box's guided preprocessing took 16-45 s on the shared machine (2026-12-04): its ladder starts at 30 s.
+PEER_BUDGETS_glass_box ?= 30,60,120
+PEER_REPEATS ?= 2
 PEER_SCALE ?= 0.5
-# The references are time-bounded (iris unguided, PEER_REF_TIME seconds): the shared machine's sample rate
-# varies several-fold; compare-images states each reference's own share of the relMSE.
-PEER_REF_TIME ?= 120
+# The references are time-bounded (iris unguided, PEER_REF_TIME seconds; the glass box PEER_REF_TIME_glass_box):
+# the shared machine's sample rate varies several-fold; compare-images states each reference's own share of
+# the relMSE, and the report subtracts it in its "ref noise removed" column.
+PEER_REF_TIME ?= 180
+PEER_REF_TIME_glass_box ?= 420
 BLENDER ?= blender
 PEER_RUNS := out/bench/peers
-peer_ref = $(REF_DIR)/peer-$(1)-s$(PEER_SCALE)-$(PEER_REF_TIME)s.exr
-PEER_GIVEN := $(foreach v,PEER_SCENES PEER_BUDGETS PEER_SCALE PEER_REF_TIME PIPELINE,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
+peer_path = $(word 2,$(subst :, ,$(1)))
+peer_ref_time = $(or $(PEER_REF_TIME_$(1)),$(PEER_REF_TIME))
+peer_ref = $(REF_DIR)/peer-$(1)-s$(PEER_SCALE)-$(call peer_ref_time,$(1))s.exr
+PEER_GIVEN := $(foreach v,PEER_SCENES PEER_BUDGETS PEER_REPEATS PEER_SCALE PEER_REF_TIME PIPELINE,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
 .PHONY: peers peer-blender
 peer-blender:
 	@command -v $(BLENDER) >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get install -y blender; } || \
 	  { echo "bench.mk: error: $(BLENDER) not found; install Debian's package: apt-get install blender" >&2; exit 1; }
 peers: $(foreach s,$(PEER_SCENES),$(PEER_RUNS)/$(call name_of,$(s))/results.json)
-	/usr/bin/python3 scripts/bench_peers.py report --runs $(PEER_RUNS) \
+	$(PYTHON) scripts/bench_peers.py report --runs $(PEER_RUNS) \
 	  --names $(foreach s,$(PEER_SCENES),$(call name_of,$(s))) -o docs/benchmarks/peers.md --assets docs/benchmarks/peers $(PEER_GIVEN)
 define peer_rules
-$(call peer_ref,$(call name_of,$(1))): $(SEEDS)/$(word 2,$(subst :, ,$(1)))
+$(call peer_ref,$(call name_of,$(1))): $(call peer_path,$(1))
 	@mkdir -p $(REF_DIR)
-	IRIS_BIN=$(BIN) /usr/bin/python3 scripts/bench_peers.py reference --scene $$< --scale $(PEER_SCALE) --seconds $(PEER_REF_TIME) -o $$@
+	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench_peers.py reference --scene $$< --scale $(PEER_SCALE) \
+	  --seconds $(call peer_ref_time,$(call name_of,$(1))) -o $$@
 $(PEER_RUNS)/$(call name_of,$(1))/results.json: $(call peer_ref,$(call name_of,$(1))) peer-blender FORCE
-	IRIS_BIN=$(BIN) BLENDER=$(BLENDER) /usr/bin/python3 scripts/bench_peers.py runs --scene $(SEEDS)/$(word 2,$(subst :, ,$(1))) \
-	  --name $(call name_of,$(1)) --scale $(PEER_SCALE) --budgets $(or $(PEER_BUDGETS_$(call name_of,$(1))),$(PEER_BUDGETS)) --reference $$< \
-	  --out $(PEER_RUNS)/$(call name_of,$(1)) $(PIPELINE)
+	IRIS_BIN=$(BIN) BLENDER=$(BLENDER) $(PYTHON) scripts/bench_peers.py runs --scene $(call peer_path,$(1)) \
+	  --name $(call name_of,$(1)) --scale $(PEER_SCALE) --budgets $(or $(PEER_BUDGETS_$(call name_of,$(1))),$(PEER_BUDGETS)) \
+	  --repeats $(PEER_REPEATS) --reference $$< --out $(PEER_RUNS)/$(call name_of,$(1)) $(PIPELINE)
 endef
 $(foreach s,$(PEER_SCENES),$(eval $(call peer_rules,$(s))))

@@ -71,7 +71,14 @@ def cmd_reference(a):
     print("reference %s: %s spp, %.0f s" % (a.output, meta.get("iris:spp"), seconds))
 
 
+def load():
+    """The 1-minute load average (the machine is shared: every row records it)."""
+    return round(os.getloadavg()[0], 2)
+
+
 def cmd_runs(a):
+    if a.repeats < 1:
+        sys.exit("bench_peers: --repeats must be >= 1, got %d" % a.repeats)
     os.makedirs(a.out, exist_ok=True)
     w, h = bench.scaled_resolution(a.scene, a.scale)
     res = "%dx%d" % (w, h)
@@ -85,38 +92,95 @@ def cmd_runs(a):
     print("  cycles calibration (1 spp): %.1f s wall, of it start-up %.1f, construction %.1f, sync %.2f, write %.2f"
           % (cal["wall"], cal["startup"], cal["build"], cal["cycles_sync"], cal["write"]))
     rows = []
-    for b in budgets:
-        for r in ("nee+bsdf", "auto", "cycles"):
-            out = os.path.join(a.out, "%s-%gs.exr" % (r.replace("+", "_"), b))
-            if r == "cycles":
-                x = cycles(scene_json, out, seconds=max(1.0, b - overhead))
-                x.update(render_wall=x["wall"], prep=0.0, total=x["wall"])
+    order = ("nee+bsdf", "auto", "cycles")
+    for rep in range(a.repeats):
+        seed = 7 + 1000 * rep  # independent images per repeat (time-bounded renders of one seed share a prefix)
+        for b in budgets:
+            # Interleaved per budget; every other repeat in reverse order, so that a drift in the machine's
+            # load does not favour one renderer.
+            for r in (order if rep % 2 == 0 else order[::-1]):
+                out = os.path.join(a.out, "%s-%gs-r%d.exr" % (r.replace("+", "_"), b, rep))
+                load0 = load()
+                if r == "cycles":
+                    x = cycles(scene_json, out, seconds=max(1.0, b - overhead), seed=seed)
+                    x.update(render_wall=x["wall"], prep=0.0, total=x["wall"], image=out)
+                else:
+                    m_prep = prep if r == "auto" else 0.0
+                    if b - m_prep <= 0.5:
+                        rows.append(dict(renderer=r, budget=b, rep=rep,
+                                         skipped="preprocessing %.1f s exceeds the budget" % prep))
+                        print("  %-9s %5.1f s r%d: skipped (preprocessing %.1f s)" % (r, b, rep, prep))
+                        continue
+                    x = bench.render_and_compare(a.scene, out, res, b - m_prep, a.reference,
+                                                 ["--atlas", atlas, "--mode", r] if r == "auto" else [], seed=seed)
+                    x.update(prep=m_prep, total=x["render_wall"] + m_prep)
                 c = bench.compare(out, a.reference)
-                x.update(relmse=c["relmse"], relmse_trimmed=c["relmse_trimmed"], mean_test=c["mean_test"],
-                         mean_ref=c["mean_ref"], relmse_reference_noise=c.get("relmse_reference_noise"), image=out)
-            else:
-                m_prep = prep if r == "auto" else 0.0
-                if b - m_prep <= 0.5:
-                    rows.append(dict(renderer=r, budget=b, skipped="preprocessing %.1f s exceeds the budget" % prep))
-                    print("  %-9s %5.1f s: skipped (preprocessing %.1f s)" % (r, b, prep))
-                    continue
-                x = bench.render_and_compare(a.scene, out, res, b - m_prep, a.reference,
-                                             ["--atlas", atlas, "--mode", r] if r == "auto" else [])
-                x.update(prep=m_prep, total=x["render_wall"] + m_prep)
-                c = bench.compare(out, a.reference)
-                x.update(mean_test=c["mean_test"], mean_ref=c["mean_ref"])
-            x.update(renderer=r, budget=b)
-            rows.append(x)
-            print("  %-9s %5.1f s: total %.1f s, relMSE %.4g, efficiency %.3g (%s spp)"
-                  % (r, b, x["total"], x["relmse"], 1.0 / (x["relmse"] * x["total"]), x.get("spp")))
+                if r == "cycles":
+                    x.update(relmse=c["relmse"], relmse_trimmed=c["relmse_trimmed"],
+                             relmse_reference_noise=c.get("relmse_reference_noise"))
+                x.update(mean_test=c["mean_test"], mean_ref=c["mean_ref"], renderer=r, budget=b, rep=rep, seed=seed,
+                         load_before=load0, load_after=load())
+                rows.append(x)
+                print("  %-9s %5.1f s r%d: total %.1f s, relMSE %.4g, efficiency %.3g (%s spp, load %.1f)"
+                      % (r, b, rep, x["total"], x["relmse"], 1.0 / (x["relmse"] * x["total"]), x.get("spp"), load0))
     info = dict(scene=a.scene, name=a.name, resolution=res, reference=a.reference,
                 reference_manifest=bench.read_manifest(a.reference + ".manifest"), prep=prep, prep_parts=parts,
-                cycles_calibration=cal, cycles_overhead=overhead, rows=rows, date=time.strftime("%Y-%m-%d %H:%M UTC",
-                                                                                             time.gmtime()),
-                pipeline_vars=a.pipeline_vars)
+                cycles_calibration=cal, cycles_overhead=overhead, rows=rows, repeats=a.repeats,
+                date=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), pipeline_vars=a.pipeline_vars,
+                agreement=agreement(rows, a.reference))
     with open(os.path.join(a.out, "results.json.tmp"), "w") as f:
         json.dump(info, f, indent=1)
     os.replace(os.path.join(a.out, "results.json.tmp"), os.path.join(a.out, "results.json"))
+
+
+def relmse(t, r):
+    """compare-images' relMSE: mean over pixels and channels of (t - r)^2 / (r^2 + 0.01)."""
+    import numpy as np
+    return float(np.mean((t - r) ** 2 / (r * r + 0.01)))
+
+
+def agreement(rows, reference):
+    """Do the renderers agree with each other and with the reference at the longest budget? (After every
+    timed render; untimed.) Per renderer with two or more repeats there: its own noise (half the relMSE
+    between two of its repeats), its relMSE against the reference less the reference's noise share (= its
+    own noise if neither is biased), its channel means over the reference, and the edge structure of the
+    difference between its mean image and the reference: relMSE on the 5 % of pixels with the steepest
+    reference gradient over that on the flattest 50 % (a mismatched pixel filter shows here first; the
+    first run's Cycles, filter 3x too wide, had 374 on the diffuse box, iris 4). Also the relMSE between
+    Cycles and iris unguided (first repeats) against the sum of their own noises."""
+    import numpy as np
+    import exr
+    ref, var = exr.rgb(reference), exr.variance(reference)
+    lum = ref.mean(axis=2)
+    gy, gx = np.gradient(lum)
+    g = np.hypot(gx, gy) / (lum + 0.05)
+    edge, flat = g > np.quantile(g, 0.95), g < np.quantile(g, 0.5)
+    ref_noise = float(np.mean(var / (ref * ref + 0.01)))
+    done = [x for x in rows if "skipped" not in x]
+    if not done:
+        return None
+    b = max(x["budget"] for x in done)
+    out = dict(budget=b, reference_noise=ref_noise, renderers={})
+    imgs = {}
+    for rn in ("nee+bsdf", "auto", "cycles"):
+        xs = sorted((x for x in done if x["renderer"] == rn and x["budget"] == b), key=lambda x: x["rep"])
+        if len(xs) < 2:
+            continue
+        im = [exr.rgb(x["image"]) for x in xs]
+        imgs[rn] = im
+        own = relmse(im[0], im[1]) / 2
+        vs_ref = float(np.mean([relmse(i, ref) for i in im]))
+        mean = np.mean(im, axis=0)
+        e = ((mean - ref) ** 2 / (ref * ref + 0.01)).mean(axis=2)
+        out["renderers"][rn] = dict(
+            repeats=len(im), own_noise=own, vs_reference=vs_ref, vs_reference_less_ref_noise=vs_ref - ref_noise,
+            channel_mean_ratio=[float(mean[..., c].mean() / ref[..., c].mean()) for c in range(3)],
+            edge_over_flat=float(e[edge].mean() / e[flat].mean()))
+    if "cycles" in imgs and "nee+bsdf" in imgs:
+        r = out["renderers"]
+        out["cycles_vs_unguided"] = dict(relmse=relmse(imgs["cycles"][0], imgs["nee+bsdf"][0]),
+                                         expected=r["cycles"]["own_noise"] + r["nee+bsdf"]["own_noise"])
+    return out
 
 
 LABEL = {"nee+bsdf": "iris unguided (nee+bsdf)", "auto": "iris guided (auto)", "cycles": "Cycles 3.4.1 (path)"}
@@ -213,6 +277,7 @@ def main():
     r.add_argument("--scale", type=float, default=0.5)
     r.add_argument("--budgets", default="15,30,60")
     r.add_argument("--reference", required=True)
+    r.add_argument("--repeats", type=int, default=1)
     r.add_argument("--out", required=True)
     r.add_argument("pipeline_vars", nargs="*", help="settings for pipelines/guided.mk (NAME=value)")
     f = sub.add_parser("reference")

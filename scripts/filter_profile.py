@@ -19,6 +19,9 @@ import tempfile
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import exr  # noqa: E402
+
 BIN = os.environ.get("IRIS_BIN", "build/bin")
 BLENDER = os.environ.get("BLENDER", "blender")
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -90,14 +93,10 @@ def main():
             run([BLENDER, "-b", "--factory-startup", "-P", os.path.join(HERE, "cycles_render.py"), "--", js, out,
                  "--spp", str(a.spp)] + ([] if wdt is None else ["--filter-width", "%g" % wdt]))
             runs.append((label, out))
-        conv = []
-        for _, exr in runs:
-            conv += [exr, exr[:-4] + ".npy"]
-        run([BLENDER, "-b", "--factory-startup", "-P", os.path.join(HERE, "exr_to_npy.py"), "--"] + conv)
         sig = {}
         print("filter %s, %d spp; profile = value at distances -2..2 px (step 0.5) from the edge" % (a.filter, a.spp))
-        for label, exr in runs:
-            s, rms, prof = fit(np.load(exr[:-4] + ".npy"))
+        for label, path in runs:
+            s, rms, prof = fit(exr.rgb(path))
             sig[label] = s
             print("  %-16s fitted sigma %.3f px (rms residual %.4f)  profile %s"
                   % (label, s, rms, " ".join("%.3f" % x for x in prof)))
