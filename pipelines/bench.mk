@@ -119,11 +119,15 @@ plots:
 # Blender is a benchmark-only dependency (~300 MB with its data): installed here when missing and run as
 # root, never by scripts/install-deps.sh, and no test needs it.
 # NAME:scene path. The spec boxes: glass_spheres.xml is the thesis's cbox_kugeln.xml (two glass spheres),
-# empty_box.xml the plain box (diffuse walls, no objects).
-PEER_SCENES ?= glass_box:scenes/cbox/glass_spheres.xml plain_box:scenes/cbox/empty_box.xml
+# empty_box.xml the plain box (diffuse walls, no objects); of iris's caustic scenes the mirror boxes
+# (copper conductors: Cycles' sharp Glossy with the exact conductor Fresnel as shader math). Not the glass
+# egg (veach_bidir: a Ward BSDF and a medium) nor the metal ring (roughdiffuse): no Cycles translation.
+PEER_SCENES ?= glass_box:scenes/cbox/glass_spheres.xml plain_box:scenes/cbox/empty_box.xml \
+  mirror_boxes:scenes/thesis/cbox_spiegelboxen.xml
 PEER_BUDGETS ?= 15,30,60
 # The glass box's guided preprocessing took 16-45 s on the shared machine (2026-12-04): its ladder starts at 30 s.
 PEER_BUDGETS_glass_box ?= 30,60,120
+PEER_BUDGETS_mirror_boxes ?= 30,60
 PEER_REPEATS ?= 2
 PEER_SCALE ?= 0.5
 # The references are time-bounded (iris unguided, PEER_REF_TIME seconds; the glass box PEER_REF_TIME_glass_box):
@@ -131,6 +135,7 @@ PEER_SCALE ?= 0.5
 # the relMSE, and the report subtracts it in its "ref noise removed" column.
 PEER_REF_TIME ?= 180
 PEER_REF_TIME_glass_box ?= 420
+PEER_REF_TIME_mirror_boxes ?= 300
 BLENDER ?= blender
 PEER_RUNS := out/bench/peers
 peer_path = $(word 2,$(subst :, ,$(1)))
@@ -141,9 +146,13 @@ PEER_GIVEN := $(foreach v,PEER_SCENES PEER_BUDGETS PEER_REPEATS PEER_SCALE PEER_
 peer-blender:
 	@command -v $(BLENDER) >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get install -y blender; } || \
 	  { echo "bench.mk: error: $(BLENDER) not found; install Debian's package: apt-get install blender" >&2; exit 1; }
-peers: $(foreach s,$(PEER_SCENES),$(PEER_RUNS)/$(call name_of,$(s))/results.json)
+peers: $(foreach s,$(PEER_SCENES),$(PEER_RUNS)/$(call name_of,$(s))/results.json) $(PEER_RUNS)/filter_profile.txt
 	$(PYTHON) scripts/bench_peers.py report --runs $(PEER_RUNS) \
 	  --names $(foreach s,$(PEER_SCENES),$(call name_of,$(s))) -o docs/benchmarks/peers.md --assets docs/benchmarks/peers $(PEER_GIVEN)
+# Both renderers' pixel filter measured on a slanted emitter edge (and Cycles' with the first run's width 6 px).
+$(PEER_RUNS)/filter_profile.txt: scripts/filter_profile.py scripts/cycles_render.py peer-blender
+	@mkdir -p $(PEER_RUNS)
+	IRIS_BIN=$(BIN) BLENDER=$(BLENDER) $(PYTHON) scripts/filter_profile.py --cycles-width 6 > $@.tmp && mv $@.tmp $@
 define peer_rules
 $(call peer_ref,$(call name_of,$(1))): $(call peer_path,$(1))
 	@mkdir -p $(REF_DIR)

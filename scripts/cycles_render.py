@@ -11,7 +11,11 @@ Translation (what Cycles gets for each iris object):
   diffuse        Diffuse BSDF (Lambert, roughness 0), colour = reflectance
   dielectric     Glass BSDF, sharp, IOR = intIOR/extIOR, colour = 1 (iris's default specular reflectance
                  and transmittance; anything else is refused)
-  conductor      refused (Cycles' sharp Glossy has no complex-IOR Fresnel)
+  conductor      Glossy BSDF, sharp (its weight is its colour: no Fresnel of its own), colour = specular
+                 reflectance x the exact unpolarised conductor Fresnel term for iris's complex IOR eta + i k,
+                 evaluated per channel by shader math on cos = N . I (the formula of iris's
+                 fresnel_conductor; exact for a mirror, where the incident and reflected angles are equal), and
+                 black from behind (Mitsuba's conductors are one-sided; Cycles flips N to face the ray)
   area emitter   Emission (strength 1, colour = radiance in W/(m^2 sr)) added to the surface's BSDF, on
                  the front side only (Mitsuba's area lights are one-sided; Cycles' emission is two-sided,
                  so a Backfacing mix switches it off behind)
@@ -90,6 +94,53 @@ def parse_args():
     return a
 
 
+class Math:
+    """Scalar shader arithmetic on node sockets or constants (Cycles' Math node), for expressions per channel."""
+
+    def __init__(self, nt):
+        self.nt = nt
+
+    def op(self, operation, a, b=None):
+        n = self.nt.nodes.new("ShaderNodeMath")
+        n.operation = operation
+        for i, v in enumerate((a, b)):
+            if v is None:
+                continue
+            if isinstance(v, (int, float)):
+                n.inputs[i].default_value = float(v)
+            else:
+                self.nt.links.new(v, n.inputs[i])
+        return n.outputs[0]
+
+    def add(self, a, b): return self.op("ADD", a, b)
+    def sub(self, a, b): return self.op("SUBTRACT", a, b)
+    def mul(self, a, b): return self.op("MULTIPLY", a, b)
+    def div(self, a, b): return self.op("DIVIDE", a, b)
+    def sqrt(self, a): return self.op("SQRT", a)
+    def max(self, a, b): return self.op("MAXIMUM", a, b)
+
+
+def conductor_fresnel(m, c, eta, k):
+    """Unpolarised Fresnel reflectance of a conductor (eta + i k) at cosine c (a socket in [0, 1]), as iris's
+    fresnel_conductor: a^2+b^2 = |n^2 - sin^2|, Rs and Rp in real arithmetic; eta <= 0 is a perfect mirror."""
+    if not eta > 0:
+        return 1.0
+    c2 = m.mul(c, c)
+    s2 = m.sub(1.0, c2)
+    s4 = m.mul(s2, s2)
+    t0 = m.sub(eta * eta - k * k, s2)
+    a2b2 = m.sqrt(m.add(m.mul(t0, t0), 4.0 * eta * eta * k * k))
+    a = m.sqrt(m.max(0.0, m.mul(0.5, m.add(a2b2, t0))))
+    t1 = m.add(a2b2, c2)
+    t2 = m.mul(m.mul(2.0, a), c)
+    # t1 + t2 > 0 unless eta = 1, k = 0 at grazing (no interface); the floor keeps the division finite there.
+    rs = m.div(m.sub(t1, t2), m.max(m.add(t1, t2), 1e-30))
+    t3 = m.add(m.mul(a2b2, c2), s4)
+    t4 = m.mul(t2, s2)
+    rp = m.mul(rs, m.div(m.sub(t3, t4), m.max(m.add(t3, t4), 1e-30)))
+    return m.op("MINIMUM", m.max(m.mul(0.5, m.add(rs, rp)), 0.0), 1.0)
+
+
 def material(name, bsdf, radiance):
     m = bpy.data.materials.new(name)
     m.use_nodes = True
@@ -111,6 +162,23 @@ def material(name, bsdf, radiance):
         s.distribution = "SHARP"
         s.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
         s.inputs["IOR"].default_value = bsdf["ior"]
+    elif t == "conductor":
+        s = nt.nodes.new("ShaderNodeBsdfGlossy")
+        s.distribution = "SHARP"
+        mm = Math(nt)
+        geo = nt.nodes.new("ShaderNodeNewGeometry")
+        dot = nt.nodes.new("ShaderNodeVectorMath")
+        dot.operation = "DOT_PRODUCT"
+        nt.links.new(geo.outputs["Normal"], dot.inputs[0])
+        nt.links.new(geo.outputs["Incoming"], dot.inputs[1])
+        c = mm.op("MINIMUM", mm.max(dot.outputs["Value"], 0.0), 1.0)
+        front = mm.sub(1.0, geo.outputs["Backfacing"])
+        comb = nt.nodes.new("ShaderNodeCombineColor")
+        for ch in range(3):
+            f = conductor_fresnel(mm, c, bsdf["eta"][ch], bsdf["k"][ch])
+            v = mm.mul(mm.mul(f, bsdf["specular"][ch]), front)
+            nt.links.new(v, comb.inputs[ch])
+        nt.links.new(comb.outputs[0], s.inputs["Color"])
     else:
         fail("%s: BSDF type %s has no Cycles equivalent set up" % (name, t))
     if bsdf.get("two_sided") and t != "diffuse":
