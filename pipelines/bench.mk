@@ -127,7 +127,7 @@ PEER_SCENES ?= glass_box:scenes/cbox/glass_spheres.xml plain_box:scenes/cbox/emp
 PEER_BUDGETS ?= 15,30,60
 # The glass box's guided preprocessing took 16-45 s on the shared machine (2026-12-04): its ladder starts at 30 s.
 PEER_BUDGETS_glass_box ?= 30,60,120
-PEER_BUDGETS_mirror_boxes ?= 30,60
+PEER_BUDGETS_mirror_boxes ?= 30
 PEER_REPEATS ?= 2
 PEER_SCALE ?= 0.5
 # The references are time-bounded (iris unguided, PEER_REF_TIME seconds; the glass box PEER_REF_TIME_glass_box):
@@ -135,7 +135,7 @@ PEER_SCALE ?= 0.5
 # the relMSE, and the report subtracts it in its "ref noise removed" column.
 PEER_REF_TIME ?= 180
 PEER_REF_TIME_glass_box ?= 420
-PEER_REF_TIME_mirror_boxes ?= 300
+PEER_REF_TIME_mirror_boxes ?= 180
 BLENDER ?= blender
 PEER_RUNS := out/bench/peers
 peer_path = $(word 2,$(subst :, ,$(1)))
