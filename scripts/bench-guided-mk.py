@@ -43,7 +43,7 @@ def main():
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--out", required=True)
     ap.add_argument("vars", nargs="*", help="further guided.mk variables, VAR=VALUE")
-    a = ap.parse_args()
+    a = ap.parse_intermixed_args()
     name = os.path.splitext(os.path.basename(a.scene))[0]
     ref = os.path.join(a.ref_dir, "%s-%sspp.exr" % (name, a.ref_spp))
     if not os.path.exists(ref):
