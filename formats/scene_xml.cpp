@@ -1279,13 +1279,7 @@ private:
                                              "); BSDF parameters must be finite and non-negative");
                 }
             }
-            t.filter = o.filter;
-            t.wrap_u = o.wrap_u;
-            t.wrap_v = o.wrap_v;
-            t.uscale = o.uscale;
-            t.vscale = o.vscale;
-            t.uoffset = o.uoffset;
-            t.voffset = o.voffset;
+            set_bitmap_sampling(o, &t);  // a shared decoded file may be sampled differently
             const bool fresh = !decoded_by_file_.count(decode_key);
             index = add_texture(std::move(t), "bitmap|" + decode_key + texture_options_key(o));
             if (fresh) decoded_by_file_.emplace(decode_key, index);

@@ -6,6 +6,16 @@
 
 namespace iris {
 
+void set_bitmap_sampling(const BitmapOptions& o, Texture* t) {
+    t->filter = o.filter;
+    t->wrap_u = o.wrap_u;
+    t->wrap_v = o.wrap_v;
+    t->uscale = o.uscale;
+    t->vscale = o.vscale;
+    t->uoffset = o.uoffset;
+    t->voffset = o.voffset;
+}
+
 Texture load_bitmap_texture(const std::string& path, const BitmapOptions& o) {
     if (!(o.gamma == 0.0f || o.gamma == -1.0f || (o.gamma > 0.0f && std::isfinite(o.gamma))))
         throw ImageError(path + ": gamma must be 0 (automatic), -1 (sRGB) or positive");
@@ -40,13 +50,7 @@ Texture load_bitmap_texture(const std::string& path, const BitmapOptions& o) {
     t.type = TextureType::Bitmap;
     t.width = im.width;
     t.height = im.height;
-    t.filter = o.filter;
-    t.wrap_u = o.wrap_u;
-    t.wrap_v = o.wrap_v;
-    t.uscale = o.uscale;
-    t.vscale = o.vscale;
-    t.uoffset = o.uoffset;
-    t.voffset = o.voffset;
+    set_bitmap_sampling(o, &t);
     const size_t n = size_t(im.width) * size_t(im.height);
     t.texels.resize(n);
     for (size_t i = 0; i < n; ++i)

@@ -21,6 +21,10 @@ struct BitmapOptions {
     float uscale = 1, vscale = 1, uoffset = 0, voffset = 0;
 };
 
+// Copies the options that say how texels are sampled (filter, wrap modes, uv scale and offset) into t,
+// leaving its texels alone: one decoded file serves textures that sample it differently.
+void set_bitmap_sampling(const BitmapOptions& options, Texture* t);
+
 // Throws ImageError naming the path (missing/corrupt file, an absent channel, a non-positive gamma
 // other than -1 or 0).
 Texture load_bitmap_texture(const std::string& path, const BitmapOptions& options);

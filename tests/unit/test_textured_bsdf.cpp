@@ -268,9 +268,9 @@ TEST(TexturedBsdf, ObjTexcoordsLoadWithMitsubasFlip) {
         for (size_t i = 0; i < m.positions.size(); ++i) {
             const Vec3 p = m.positions[i];
             const Vec2 t = m.uvs[i];
-            if (p.x == 1 && p.y == 1) EXPECT_EQ(t.y, flip ? 0.0f : 1.0f) << mode;
-            if (p.x == 1 && p.y == -1) EXPECT_EQ(t.y, flip ? 1.0f : 0.0f) << mode;
-            if (t.x == 0.25f) EXPECT_EQ(t.y, flip ? 0.25f : 0.75f) << mode;
+            if (p.x == 1 && p.y == 1) { EXPECT_EQ(t.y, flip ? 0.0f : 1.0f) << mode; }
+            if (p.x == 1 && p.y == -1) { EXPECT_EQ(t.y, flip ? 1.0f : 0.0f) << mode; }
+            if (t.x == 0.25f) { EXPECT_EQ(t.y, flip ? 0.25f : 0.75f) << mode; }
         }
         // At a hit: (0.5, 0.5) on the quad's first triangle fan -> OBJ uv (0.75, 0.75).
         Ray ray;
