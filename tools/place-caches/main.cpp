@@ -22,6 +22,9 @@ int main(int argc, char** argv) {
     app.add_option("-o,--output", output, "Cache positions to write (.h5)")->required();
     app.add_option("--count", opt.count, "Caches in total (camera caches included)");
     app.add_option("--camera-stride", opt.camera_stride, "One camera cache per NxN pixel block (0 = none)");
+    app.add_option("--reach-paths", opt.reach_paths,
+                   "Camera paths per camera block that find the surfaces a render reaches; only photons there "
+                   "become photon caches (0 = every photon is a candidate)");
     app.add_option("--resolution", resolution, "Image size WxH the blocks refer to (default: the scene's film)");
     app.add_option("-t,--threads", opt.threads, "Worker threads (default: all cores)");
     app.add_option("--seed", opt.seed, "Random seed");
@@ -40,6 +43,7 @@ int main(int argc, char** argv) {
         if (!resolution.empty()) iris::parse_resolution(resolution, &opt.width, &opt.height);
         if (opt.count == 0) throw std::runtime_error("--count must be positive");
         if (opt.camera_stride < 0) throw std::runtime_error("--camera-stride must be >= 0");
+        if (opt.reach_paths < 0) throw std::runtime_error("--reach-paths must be >= 0");
         if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
         if (!(min_caustic_share >= 0 && min_caustic_share <= 1))
             throw std::runtime_error("--min-caustic-share must be in [0, 1]");
@@ -73,7 +77,8 @@ int main(int argc, char** argv) {
         prov.parameters = {{"count", double(opt.count)},          {"camera_stride", double(opt.camera_stride)},
                            {"camera_caches", double(stats.camera)}, {"photon_caches", double(stats.photon)},
                            {"cell_size", stats.cell_size},          {"seconds", stats.seconds},
-                           {"min_caustic_share", min_caustic_share}, {"caustic_share", caustic_share}};
+                           {"min_caustic_share", min_caustic_share}, {"caustic_share", caustic_share},
+                           {"reach_paths", double(opt.reach_paths)}, {"eligible_photons", double(stats.eligible)}};
         iris::write_cache_points(output, caches, scene.fingerprint, prov);
         if (skip)  // said even with -q: it decides what the render does
             std::fprintf(stderr,
@@ -81,8 +86,11 @@ int main(int argc, char** argv) {
                          "(--min-caustic-share %.2f %%), so the render stays unguided; wrote %s\n",
                          100 * caustic_share, 100 * min_caustic_share, output.c_str());
         else if (!opt.quiet)
-            std::fprintf(stderr, "place-caches: wrote %s (%u camera + %u photon caches, %.2f s)\n", output.c_str(),
-                         stats.camera, stats.photon, stats.seconds);
+            std::fprintf(stderr,
+                         "place-caches: wrote %s (%u camera + %u photon caches, %llu of %zu photons on surfaces "
+                         "camera paths reach, %.2f s)\n",
+                         output.c_str(), stats.camera, stats.photon, (unsigned long long)stats.eligible,
+                         pf.photons.position.size(), stats.seconds);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "place-caches: error: %s\n", e.what());
         return 1;
