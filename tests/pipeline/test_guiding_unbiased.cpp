@@ -307,28 +307,37 @@ TEST(CausticLightTracing, AgreesWithThePathTracerPerPixel) {
     }
 }
 
+// Renders `scene` unguided at `spp` and with each of `runs` (label, render flags), and checks that every
+// run agrees with the unguided render per pixel, per block and over the image, and that the test would
+// reject a 5 % bias. The scene's atlas is built into `dir` first (atlas.h5, for flags that name it).
+void expect_agrees_per_pixel(const std::string& scene, const TempDir& dir, int spp,
+                             const std::vector<std::pair<std::string, std::string>>& runs) {
+    const std::string n = " --spp " + std::to_string(spp);
+    const Layers unguided = render(scene, dir, "unguided", n + " --seed 1");
+    const double z_crit = normal_critical(kAlpha / test_count(unguided, 2));
+    int i = 0;
+    for (const auto& [label, args] : runs) {
+        SCOPED_TRACE(label);
+        const Layers other = render(scene, dir, "run" + std::to_string(i), n + " --seed " + std::to_string(i + 2) + " " + args);
+        ++i;
+        ASSERT_EQ(other.w, unguided.w);
+        const Verdict v = compare(other, unguided, 1.0, z_crit);
+        std::printf("%-24s largest |z|: pixel %.2f (%s), block %.2f, image %.2f\n", label.c_str(), v.worst_z[0],
+                    v.worst_where[0].c_str(), v.worst_z[1], v.worst_z[2]);
+        EXPECT_EQ(v.rejections, 0) << label << " disagrees with the unguided render:\n" << v.log;
+        EXPECT_GT(compare(other, unguided, 1.05, z_crit).rejections, 0) << "the test cannot tell a 5 % bias";
+    }
+}
+
 // An envmap scene (glass sphere on a floor, lit only by the map): guided rendering, and the light
 // tracer's environment caustics, agree with the unguided path tracer per pixel.
 TEST(GuidingUnbiased, EnvmapSceneAgreesPerPixel) {
     TempDir dir;
     const std::string scene = data_file("guiding/env_glass.xml");
     ASSERT_TRUE(build_atlases(scene, dir));
-    const Layers unguided = render(scene, dir, "unguided", "--spp 512 --seed 1");
-    const double z_crit = normal_critical(kAlpha / test_count(unguided, 2));
-    const std::pair<const char*, std::string> runs[] = {
-        {"guided nee+bsdf+cache", "--spp 512 --seed 2 --mode nee+bsdf+cache --atlas " + dir.file("atlas.h5")},
-        {"light-traced caustics", "--caustics on --spp 512 --seed 3"}};
-    int i = 0;
-    for (const auto& [label, args] : runs) {
-        SCOPED_TRACE(label);
-        const Layers other = render(scene, dir, "env" + std::to_string(i++), args);
-        ASSERT_EQ(other.w, unguided.w);
-        const Verdict v = compare(other, unguided, 1.0, z_crit);
-        std::printf("%-24s largest |z|: pixel %.2f (%s), block %.2f, image %.2f\n", label, v.worst_z[0],
-                    v.worst_where[0].c_str(), v.worst_z[1], v.worst_z[2]);
-        EXPECT_EQ(v.rejections, 0) << label << " disagrees with the unguided render:\n" << v.log;
-        EXPECT_GT(compare(other, unguided, 1.05, z_crit).rejections, 0) << "the test cannot tell a 5 % bias";
-    }
+    expect_agrees_per_pixel(scene, dir, 512,
+                            {{"guided nee+bsdf+cache", "--mode nee+bsdf+cache --atlas " + dir.file("atlas.h5")},
+                             {"light-traced caustics", "--caustics on"}});
 }
 
 // A textured scene (tests/data/guiding/textured_box.xml: bitmap and checkerboard reflectances, a
@@ -339,23 +348,10 @@ TEST(GuidingUnbiased, TexturedSceneAgreesPerPixel) {
     TempDir dir;
     const std::string scene = data_file("guiding/textured_box.xml");
     ASSERT_TRUE(build_atlases(scene, dir));
-    const Layers unguided = render(scene, dir, "unguided", "--spp 256 --seed 1");
-    const double z_crit = normal_critical(kAlpha / test_count(unguided, 2));
-    const std::pair<const char*, std::string> runs[] = {
-        {"guided nee+bsdf+cache", "--spp 256 --seed 2 --mode nee+bsdf+cache --atlas " + dir.file("atlas.h5")},
-        {"every vertex guided", "--spp 256 --seed 3 --mode nee+bsdf+cache --guide-vertices 0 --rr-threshold 0.1 --atlas " +
-                                    dir.file("atlas.h5")}};
-    int i = 0;
-    for (const auto& [label, args] : runs) {
-        SCOPED_TRACE(label);
-        const Layers other = render(scene, dir, "tex" + std::to_string(i++), args);
-        ASSERT_EQ(other.w, unguided.w);
-        const Verdict v = compare(other, unguided, 1.0, z_crit);
-        std::printf("%-24s largest |z|: pixel %.2f (%s), block %.2f, image %.2f\n", label, v.worst_z[0],
-                    v.worst_where[0].c_str(), v.worst_z[1], v.worst_z[2]);
-        EXPECT_EQ(v.rejections, 0) << label << " disagrees with the unguided render:\n" << v.log;
-        EXPECT_GT(compare(other, unguided, 1.05, z_crit).rejections, 0) << "the test cannot tell a 5 % bias";
-    }
+    const std::string atlas = " --atlas " + dir.file("atlas.h5");
+    expect_agrees_per_pixel(scene, dir, 256,
+                            {{"guided nee+bsdf+cache", "--mode nee+bsdf+cache" + atlas},
+                             {"every vertex guided", "--mode nee+bsdf+cache --guide-vertices 0 --rr-threshold 0.1" + atlas}});
 }
 
 // --mode auto weighs unguided sampling against guiding the first vertex and, unless the user fixed
