@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <climits>
 #include <chrono>
 #include <cmath>
 #include <numeric>
@@ -18,28 +19,41 @@ namespace iris {
 
 namespace {
 
-// The first non-specular surface seen through film position (fx, fy), following specular bounces.
-bool camera_cache(const Scene& scene, const Camera& cam, float fx, float fy, int w, int h, int max_specular,
-                  Rng& rng, Vec3* position, Vec3* normal) {
+// A surface vertex of a camera path: position, and the geometric normal turned to face the incoming ray.
+struct PathVertex {
+    Vec3 p, n;
+};
+
+// Walks a BSDF-sampled camera path through film position (fx, fy), specular bounces chosen as the BSDF
+// would (Fresnel), and passes each non-specular vertex to `visit`, until max_vertices of them, more than
+// max_bounces bounces, or a miss; Russian roulette on the throughput from bounce `roulette_from` on.
+// Light is not looked at: the walk only asks where a render's paths go.
+template <class Visit>
+void walk_camera_path(const Scene& scene, const Camera& cam, float fx, float fy, int w, int h, int max_bounces,
+                      int max_vertices, int roulette_from, Rng& rng, Visit&& visit) {
     Ray ray = camera_ray(cam, fx, fy, w, h);
     SurfaceHit hit;
     Bsdf scratch;
-    for (int bounce = 0; bounce <= max_specular; ++bounce) {
-        if (!scene.intersect(ray, &hit)) return false;
+    RGB throughput{1, 1, 1};
+    int vertices = 0;
+    for (int bounce = 0; bounce <= max_bounces; ++bounce) {
+        if (!scene.intersect(ray, &hit)) return;
         const Bsdf& b = scene_bsdf_at(scene, hit, &scratch);
         if (!bsdf_is_delta(b)) {
-            *position = hit.p;
-            *normal = dot(hit.ng, ray.d) < 0 ? hit.ng : -hit.ng;
-            return true;
+            visit(PathVertex{hit.p, dot(hit.ng, ray.d) < 0 ? hit.ng : -hit.ng});
+            if (++vertices >= max_vertices) return;
         }
-        // Specular: reflect or refract as the BSDF would (chosen by Fresnel), and keep going.
         BsdfSample bs;
         Vec3 wi = hit.frame.to_local(-ray.d);
-        if (!bsdf_sample(b, wi, {rng.next_float(), rng.next_float()}, rng.next_float(), &bs)) return false;
-        Vec3 wo = hit.frame.to_world(bs.wo);
-        ray = spawn_ray(hit, wo);
+        if (!bsdf_sample(b, wi, {rng.next_float(), rng.next_float()}, rng.next_float(), &bs)) return;
+        throughput = throughput * bs.weight;
+        if (bounce >= roulette_from) {
+            const float q = std::min(0.95f, max_component(throughput));
+            if (!(rng.next_float() < q)) return;
+            throughput = throughput * (1 / q);
+        }
+        ray = spawn_ray(hit, hit.frame.to_world(bs.wo));
     }
-    return false;
 }
 
 struct CellKey {
@@ -75,37 +89,6 @@ int dominant_side(Vec3 n) {
     if (ax >= ay && ax >= az) return n.x >= 0 ? 0 : 1;
     if (ay >= az) return n.y >= 0 ? 2 : 3;
     return n.z >= 0 ? 4 : 5;
-}
-
-// Non-specular vertices (position, normal facing the incoming ray) of one BSDF-sampled camera path:
-// up to kReachBounces bounces or kReachVertices such vertices, Russian roulette on the throughput after
-// the second bounce. Light is not looked at: the path only asks where a render's paths go.
-void reach_path(const Scene& scene, const Camera& cam, float fx, float fy, int w, int h, Rng& rng,
-                std::vector<std::pair<Vec3, Vec3>>* out) {
-    constexpr int kReachBounces = 6, kReachVertices = 3;
-    Ray ray = camera_ray(cam, fx, fy, w, h);
-    SurfaceHit hit;
-    Bsdf scratch;
-    RGB throughput{1, 1, 1};
-    int vertices = 0;
-    for (int bounce = 0; bounce <= kReachBounces; ++bounce) {
-        if (!scene.intersect(ray, &hit)) return;
-        const Bsdf& b = scene_bsdf_at(scene, hit, &scratch);
-        if (!bsdf_is_delta(b)) {
-            out->push_back({hit.p, dot(hit.ng, ray.d) < 0 ? hit.ng : -hit.ng});
-            if (++vertices >= kReachVertices) return;
-        }
-        BsdfSample bs;
-        Vec3 wi = hit.frame.to_local(-ray.d);
-        if (!bsdf_sample(b, wi, {rng.next_float(), rng.next_float()}, rng.next_float(), &bs)) return;
-        throughput = throughput * bs.weight;
-        if (bounce >= 2) {
-            const float q = std::min(0.95f, max_component(throughput));
-            if (!(rng.next_float() < q)) return;
-            throughput = throughput * (1 / q);
-        }
-        ray = spawn_ray(hit, hit.frame.to_world(bs.wo));
-    }
 }
 
 // Number of distinct grid cells of size h that photons (a subset) fall into.
@@ -157,7 +140,12 @@ CachePoints place_caches(const Scene& scene, const PhotonMap& photons, const Pla
                 // A jittered position inside the block, so caches do not line up on a regular grid.
                 float fx = std::min(float(w), (x + rng.next_float()) * o.camera_stride);
                 float fy = std::min(float(h), (y + rng.next_float()) * o.camera_stride);
-                ok[i] = camera_cache(scene, cam, fx, fy, w, h, o.max_specular, rng, &bp[i], &bn[i]);
+                // The first non-specular surface, following at most max_specular specular bounces.
+                walk_camera_path(scene, cam, fx, fy, w, h, o.max_specular, 1, INT_MAX, rng, [&](PathVertex v) {
+                    bp[i] = v.p;
+                    bn[i] = v.n;
+                    ok[i] = 1;
+                });
             }
         });
         for (size_t i = 0; i < bp.size(); ++i)
@@ -174,7 +162,9 @@ CachePoints place_caches(const Scene& scene, const PhotonMap& photons, const Pla
                                                  (1ull << 40) + uint64_t(i) * uint64_t(o.reach_paths) + uint64_t(j));
                         float fx = std::min(float(w), (x + rng.next_float()) * o.camera_stride);
                         float fy = std::min(float(h), (y + rng.next_float()) * o.camera_stride);
-                        reach_path(scene, cam, fx, fy, w, h, rng, &verts[i]);
+                        // Up to 6 bounces or 3 non-specular vertices, roulette after the second bounce.
+                        walk_camera_path(scene, cam, fx, fy, w, h, 6, 3, 2, rng,
+                                         [&](PathVertex v) { verts[i].push_back({v.p, v.n}); });
                     }
                 }
             });
