@@ -88,24 +88,41 @@ def scene_fingerprint(scene):
 
 
 def cmd_reference(a):
+    if (a.spp > 0) == (a.guided_seconds > 0):
+        raise SystemExit("bench reference: give either --spp or --guided-seconds")
     w, h = scaled_resolution(a.scene, a.scale)
     os.makedirs(os.path.dirname(a.output) or ".", exist_ok=True)
     # make asks again whenever the scene file is newer (a fresh copy of the scenes, a touch); the
     # manifest says whether the existing reference still matches the scene's content and settings.
     m = read_manifest(a.output + ".manifest")
+    kind = "guided %gs" % a.guided_seconds if a.guided_seconds else "unguided %d spp" % a.spp
     if (os.path.exists(a.output) and m.get("scene_fingerprint") == scene_fingerprint(a.scene)
-            and m.get("resolution") == "%dx%d" % (w, h) and m.get("spp") == str(a.spp)):
+            and m.get("resolution") == "%dx%d" % (w, h) and m.get("kind", "unguided %s spp" % m.get("spp")) == kind):
         os.utime(a.output)
-        print("reference %s: up to date (same scene fingerprint, resolution and spp)" % a.output)
+        print("reference %s: up to date (same scene fingerprint, resolution and kind: %s)" % (a.output, kind))
         return
-    cmd = [BIN + "/render", a.scene, "-o", a.output, "--mode", "nee+bsdf", "--spp", str(a.spp),
-           "--resolution", "%dx%d" % (w, h), "--seed", "1000003", "--variance", "-q"]
+    if a.guided_seconds:
+        # A guided reference: the default pipeline's own renderer with an atlas of its own seeds (not the
+        # benchmark's), bounded by time. At equal time it has several times less noise than an unguided one
+        # on the caustic scenes, and its variance layers let the report take that noise out of every relMSE.
+        # Guided and unguided renders agree per pixel (tests/pipeline/test_guiding_unbiased.cpp); the report
+        # also checks the reference against an unguided one of the same scene and size (runs --check-reference).
+        prep = os.path.splitext(a.output)[0] + ".prep"
+        run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + a.scene, "OUT=" + prep, "BIN=" + BIN,
+             "SEED=1000004", "atlas"])
+        cmd = [BIN + "/render", a.scene, "--atlas", os.path.join(prep, "atlas.h5"), "--mode", "auto",
+               "--caustics", "auto", "--time", "%g" % a.guided_seconds, "--resolution", "%dx%d" % (w, h),
+               "--seed", "1000005", "--variance", "-q", "-o", a.output]
+    else:
+        cmd = [BIN + "/render", a.scene, "-o", a.output, "--mode", "nee+bsdf", "--spp", str(a.spp),
+               "--resolution", "%dx%d" % (w, h), "--seed", "1000003", "--variance", "-q"]
     seconds, _, _ = run(cmd)
     meta = metadata(a.output)
     with open(a.output + ".manifest.tmp", "w") as f:
         f.write("scene %s\n" % a.scene)
         f.write("scene_fingerprint %s\n" % meta.get("iris:scene_fingerprint", "?"))
         f.write("resolution %dx%d\n" % (w, h))
+        f.write("kind %s\n" % kind)
         f.write("spp %s\n" % meta.get("iris:spp", "?"))
         f.write("seconds %.1f\n" % seconds)
         f.write("version %s\n" % meta.get("iris:version", "?"))
@@ -212,7 +229,15 @@ def cmd_runs(a):
             if len(xs) > 1:
                 x["repeats"] = [round(y["relmse"] * y["total"], 6) for y in xs]
             rows.append(x)
-    info = dict(scene=a.scene, name=a.name, resolution=res, reference=a.reference,
+    check = None
+    if a.check_reference:
+        # Two independent unbiased references differ by their noise alone: the relMSE between them should
+        # equal the sum of their own noise shares (each from its variance layers).
+        ab, ba = compare(a.reference, a.check_reference), compare(a.check_reference, a.reference)
+        check = dict(path=a.check_reference, spp=metadata(a.check_reference).get("iris:spp"), relmse=ab["relmse"],
+                     expected=(ab.get("relmse_reference_noise") or 0) + (ba.get("relmse_reference_noise") or 0))
+    info = dict(scene=a.scene, name=a.name, resolution=res, reference=a.reference, reference_check=check,
+                reference_mode=ref_meta.get("iris:mode", "?"),
                 reference_spp=ref_meta.get("iris:spp"), prep=prep, prep_parts=prep_parts,
                 atlas_bytes=os.path.getsize(fixed["atlas"]) if guided_modes else 0,
                 pipeline_vars=a.pipeline_vars, rows=rows, repeats=a.repeats, date=time.strftime("%Y-%m-%d"),
@@ -385,6 +410,16 @@ def cmd_plots(a):
             print("%s: %s-%s.png, .svg" % (assets, prefix, name))
 
 
+def efficiency_without_reference_noise(u, x):
+    """Efficiency of render x over the unguided render u with the reference's own noise (its variance
+    layers) taken out of both relMSEs: on average what the ratio against the truth would be. None where
+    the reference has no variance layers or its noise estimate exceeds a relMSE."""
+    nu, nx = u.get("relmse_reference_noise"), x.get("relmse_reference_noise")
+    if nu is None or nx is None or x["relmse"] <= nx or u["relmse"] <= nu:
+        return None
+    return ((u["relmse"] - nu) * u["total"]) / ((x["relmse"] - nx) * x["total"])
+
+
 def cmd_report(a):
     results = []
     for d in sorted(os.listdir(a.runs)):
@@ -400,8 +435,9 @@ def cmd_report(a):
                 "per cell the median of %d renders by relMSE x time, seeds 7 on, modes interleaved" % repeats)
     lines = ["## Run time against error (%s tier)" % a.tier, "",
              "`%s`, %s, %s threads. Every render of a scene is compared with an "
-             "unguided reference of the same size (spp in each section; its own noise is part of every relMSE, "
-             "so ratios are conservative). Time is the wall time of the whole `render` command plus, for guided "
+             "reference of the same size (unguided, or guided where each section says so; its own noise is part of "
+             "every relMSE, so the plain ratios are conservative, and the columns 'ref. noise removed' take it out "
+             "using the reference's variance layers). Time is the wall time of the whole `render` command plus, for guided "
              "modes, the preprocessing (`trace-photons` + `place-caches` + `fill-caches`); each guided render "
              "gets `--time` = budget - preprocessing. Efficiency = 1 / (relMSE x time); the ratio is taken "
              "against nee+bsdf at the same budget (> 1: the mode wins at equal time). `auto` is the default "
@@ -427,7 +463,14 @@ def cmd_report(a):
                 modes.append(x["mode"])
         budgets = sorted({x["budget"] for x in r["rows"]})
         by = {(x["mode"], x["budget"]): x for x in rows}
-        lines += ["### `%s` (%s, reference %s spp)" % (name, r["resolution"], r["reference_spp"]), ""]
+        ref_kind = "guided" if r.get("reference_mode", "nee+bsdf") != "nee+bsdf" else "unguided"
+        lines += ["### `%s` (%s, %s reference of %s spp)" % (name, r["resolution"], ref_kind, r["reference_spp"]), ""]
+        c = r.get("reference_check")
+        if c:
+            lines += ["Reference checked against an independent one (`%s`, %s spp): relMSE between them %.4g, "
+                      "expected from their own noise alone %.4g (ratio %.2f; 1 = they differ by noise only)."
+                      % (c["path"], c["spp"], c["relmse"], c["expected"], c["relmse"] / c["expected"]
+                         if c["expected"] > 0 else float("nan")), ""]
         if r["prep"]:
             pp = r["prep_parts"]
             lines.append("Preprocessing %.2f s (photons %.2f, caches %.2f, atlas %.2f); %d caches of %dx%d texels: "
@@ -447,24 +490,25 @@ def cmd_report(a):
                     lines[-1] += ("; the caches above are those of a forced preprocessing (MIN_CAUSTIC=0, "
                                   "%.2f s) for the fixed guided modes." % fixed_prep)
             lines.append("")
-        head = "| budget (s) | " + " | ".join("%s relMSE (spp) | eff. ratio" % m if m != "nee+bsdf" else
-                                              "%s relMSE (spp)" % m for m in modes) + " |"
-        lines += [head, "|" + "---|" * (1 + sum(2 if m != "nee+bsdf" else 1 for m in modes))]
+        head = "| budget (s) | " + " | ".join("%s relMSE (spp) | eff. ratio | ref. noise removed" % m if m != "nee+bsdf"
+                                              else "%s relMSE (spp)" % m for m in modes) + " |"
+        lines += [head, "|" + "---|" * (1 + sum(3 if m != "nee+bsdf" else 1 for m in modes))]
         for b in budgets:
             cells = []
             u = by.get(("nee+bsdf", b))
             for m in modes:
                 x = by.get((m, b))
                 if not x:
-                    cells += ["n/a"] if m == "nee+bsdf" else ["n/a", "n/a"]
+                    cells += ["n/a"] if m == "nee+bsdf" else ["n/a", "n/a", "n/a"]
                     continue
                 cells.append("%.4g (%d)" % (x["relmse"], x["spp"]))
                 if m != "nee+bsdf":
                     if u:
                         eff = (u["relmse"] * u["total"]) / (x["relmse"] * x["total"])
-                        cells.append("%.2f" % eff)
+                        clean = efficiency_without_reference_noise(u, x)
+                        cells += ["%.2f" % eff, "%.2f" % clean if clean is not None else "n/a"]
                     else:
-                        cells.append("n/a")
+                        cells += ["n/a", "n/a"]
             lines.append("| %g | %s |" % (b, " | ".join(cells)))
         lines.append("")
         # Per-sample cost at the largest budget, and the auto mode's decisions.
@@ -477,10 +521,7 @@ def cmd_report(a):
             cost = (x["sampling_seconds"] / x["spp"]) / (u["sampling_seconds"] / u["spp"])
             eff = (u["relmse"] * u["total"]) / (x["relmse"] * x["total"])
             eff_trim = (u["relmse_trimmed"] * u["total"]) / (x["relmse_trimmed"] * x["total"])
-            eff_clean = None  # with the reference's own noise (its variance layers) taken out of both relMSEs
-            nu, nx = u.get("relmse_reference_noise"), x.get("relmse_reference_noise")
-            if nu is not None and nx is not None and x["relmse"] > nx and u["relmse"] > nu:
-                eff_clean = ((u["relmse"] - nu) * u["total"]) / ((x["relmse"] - nx) * x["total"])
+            eff_clean = efficiency_without_reference_noise(u, x)
             summary.append((name, m, bmax, eff, eff_trim, eff_clean, cost, x["prep"] / bmax, x.get("decision", "")))
             lines.append("- %s at %g s: per-sample cost %.2fx nee+bsdf (sampling seconds per spp, pilot included), "
                          "preprocessing %.1f %% of the budget%s" % (m, bmax, cost, 100 * x["prep"] / bmax,
@@ -546,7 +587,9 @@ def main():
     r = sub.add_parser("reference")
     r.add_argument("--scene", required=True)
     r.add_argument("--scale", type=float, default=1.0)
-    r.add_argument("--spp", type=int, required=True)
+    r.add_argument("--spp", type=int, default=0, help="an unguided reference of this many spp")
+    r.add_argument("--guided-seconds", type=float, default=0,
+                   help="instead: a guided reference (MODE=auto, an atlas of its own seeds) of this many seconds")
     r.add_argument("-o", "--output", required=True)
     r.set_defaults(func=cmd_reference)
     s = sub.add_parser("runs")
@@ -557,6 +600,8 @@ def main():
     s.add_argument("--modes", required=True, help="comma-separated: nee+bsdf, auto, nee+bsdf+cache, ...")
     s.add_argument("--reference", required=True)
     s.add_argument("--out", required=True)
+    s.add_argument("--check-reference", default="",
+                   help="an independent reference of the same scene and size to check --reference against")
     s.add_argument("--repeats", type=int, default=1,
                    help="renders per cell, modes interleaved; the median by relMSE x time is kept (default 1)")
     s.add_argument("pipeline_vars", nargs="*", help="VAR=value settings for pipelines/guided.mk")
