@@ -82,23 +82,28 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         }
         recorded[n_recorded++] = {c, guide->texel_index(c, wo_world), cos_c / p, b, L};
     };
+    // Emission le that the path reached at its depth-th vertex from light `light_index` (p, n: the point
+    // and normal on an emitter; zero for the environment). Paths do not end at lights (an emitter may also
+    // reflect, DESIGN 4.8).
+    auto add_emission = [&](RGB le, int depth, int light_index, Vec3 p, Vec3 n) {
+        if (caustic_chain && depth >= 3) {
+            // The caustic class of caustics.h (at least one Dirac vertex; MIS weight 1): the light
+            // tracer's where it runs.
+            if (caustic) *caustic += beta * le;
+            if (!ps.light_traced_caustics) L += beta * le;
+        } else {
+            float w = 1.0f;
+            if (!prev_delta && use_nee)
+                w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(light_index), prev_p, p, n, ray.d));
+            L += beta * le * w;
+        }
+    };
     for (int depth = 1;; ++depth) {
         ++counters.rays;
         if (!scene.intersect(ray, &hit)) {
             if (scene.environment_light >= 0) {
                 const Light& env = scene.lights[scene.environment_light];
-                RGB le = light_emitted(env, Vec3(0), -ray.d);
-                if (caustic_chain && depth >= 3) {
-                    // The environment's share of the caustic class (caustics.h), as for emitter hits.
-                    if (caustic) *caustic += beta * le;
-                    if (!ps.light_traced_caustics) L += beta * le;
-                } else {
-                    float w = 1.0f;
-                    if (!prev_delta && use_nee)
-                        w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(scene.environment_light), prev_p,
-                                                                Vec3(0), Vec3(0), ray.d));
-                    L += beta * le * w;
-                }
+                add_emission(light_emitted(env, Vec3(0), -ray.d), depth, scene.environment_light, Vec3(0), Vec3(0));
             }
             break;
         }
@@ -110,23 +115,9 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // meanwhile).
         Guide::Probe probe;
         if (guided_here) probe = guide->probe(hit.p);
-        // Emission: paths do not end at lights (an emitter may also reflect, DESIGN 4.8).
         if (hit.light >= 0) {
-            const Light& light = scene.lights[hit.light];
-            RGB le = light_emitted(light, hit.ng, wi_world);
-            if (!is_black(le)) {
-                if (caustic_chain && depth >= 3) {
-                    // The caustic class of caustics.h (at least one Dirac vertex; MIS weight 1): the light
-                    // tracer's where it runs.
-                    if (caustic) *caustic += beta * le;
-                    if (!ps.light_traced_caustics) L += beta * le;
-                } else {
-                    float w = 1.0f;
-                    if (!prev_delta && use_nee)
-                        w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(hit.light), prev_p, hit.p, hit.ng, ray.d));
-                    L += beta * le * w;
-                }
-            }
+            const RGB le = light_emitted(scene.lights[hit.light], hit.ng, wi_world);
+            if (!is_black(le)) add_emission(le, depth, hit.light, hit.p, hit.ng);
         }
         if (ps.max_depth >= 0 && depth >= ps.max_depth) break;
 
