@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 
@@ -66,6 +67,27 @@ inline float parse_float_option(const char* option, const std::string& s) {
     if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v))
         throw std::runtime_error(std::string(option) + " expects a number, got \"" + s + "\"");
     return v;
+}
+
+// "A:B" with integers 0 <= A < B (trace-photons' --path-range, render's --sample-range, the parts
+// merge-photons and merge-images join); false for anything else, a sign included.
+inline bool parse_range(const std::string& s, uint64_t* a, uint64_t* b) {
+    unsigned long long x = 0, y = 0;
+    char tail = 0;
+    if (s.find('-') != std::string::npos || std::sscanf(s.c_str(), "%llu:%llu%c", &x, &y, &tail) != 2 || !(x < y))
+        return false;
+    *a = x;
+    *b = y;
+    return true;
+}
+
+// The options of every tool that reads a scene: -D name=value (for $name in the scene file) and
+// --no-scene-warnings.
+inline void add_scene_options(CLI::App& app, std::vector<std::string>* defines, bool* no_scene_warnings) {
+    app.add_option("-D,--define", *defines, "Scene parameter name=value (for $name in the scene file)");
+    app.add_flag("--no-scene-warnings", *no_scene_warnings,
+                 "Do not print the scene's warnings (ignored parameters); pipelines/guided.mk passes it to the "
+                 "stages after trace-photons, which prints them once");
 }
 
 // "-D name=value" options into a parameter map (for $name in scene files).

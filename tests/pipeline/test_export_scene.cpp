@@ -77,7 +77,7 @@ TEST(ExportScene, RefusesWhatItCannotTranslate) {
     EXPECT_FALSE(std::filesystem::exists(out));
     ToolResult b = run_command(tool("export-scene") + " " + kugeln() + " -o " + out + " --resolution 256");
     EXPECT_NE(b.status, 0);
-    EXPECT_NE(b.output.find("export-scene: error: --resolution wants WxH"), std::string::npos) << b.output;
+    EXPECT_NE(b.output.find("export-scene: error: --resolution must be WxH"), std::string::npos) << b.output;
     EXPECT_FALSE(std::filesystem::exists(out));
     // A textured diffuse BSDF: refused, not exported as its mean (the peer would render another picture).
     const std::string tex = (d.path / "tex.xml").string();

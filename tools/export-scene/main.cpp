@@ -59,17 +59,10 @@ int main(int argc, char** argv) {
     try {
         iris::check_output_path(output);
         iris::SceneLoadOptions opt;
-        for (const std::string& d : defines) {
-            const auto eq = d.find('=');
-            if (eq == std::string::npos || eq == 0) throw std::runtime_error("-D wants name=value, got \"" + d + "\"");
-            opt.parameters[d.substr(0, eq)] = d.substr(eq + 1);
-        }
+        opt.parameters = iris::parse_defines(defines);
         iris::Scene scene = iris::parse_scene(path, opt);
         int w = scene.film.width, h = scene.film.height;
-        if (!resolution.empty()) {
-            if (std::sscanf(resolution.c_str(), "%dx%d", &w, &h) != 2 || w < 1 || h < 1)
-                throw std::runtime_error("--resolution wants WxH, got \"" + resolution + "\"");
-        }
+        if (!resolution.empty()) iris::parse_resolution(resolution, &w, &h);
         iris::Camera cam = scene.camera;
         iris::camera_prepare(cam, w, h);
         for (const iris::Bsdf& b : scene.bsdfs)

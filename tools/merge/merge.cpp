@@ -5,6 +5,7 @@
 #include <cstdlib>
 
 #include "libcommon/film.h"
+#include "libcommon/tool_util.h"
 #include "tools/render/film_parts.h"
 
 namespace iris {
@@ -21,9 +22,8 @@ std::string range_text(uint64_t a, uint64_t b) { return std::to_string(a) + ":" 
 
 // "A:B" -> [A, B); throws naming the file.
 PartRange parse_range(const std::string& text, const std::string& path) {
-    unsigned long long a = 0, b = 0;
-    char tail = 0;
-    if (text.find('-') != std::string::npos || std::sscanf(text.c_str(), "%llu:%llu%c", &a, &b, &tail) != 2 || !(a < b))
+    uint64_t a = 0, b = 0;
+    if (!iris::parse_range(text, &a, &b))
         throw MergeError(path + ": damaged range '" + text + "'");
     return {a, b, path};
 }

@@ -29,16 +29,13 @@ int main(int argc, char** argv) {
     app.add_option("--resolution", resolution, "Image size WxH the blocks refer to (default: the scene's film)");
     app.add_option("-t,--threads", opt.threads, "Worker threads (default: all cores)");
     app.add_option("--seed", opt.seed, "Random seed");
-    app.add_option("-D,--define", defines, "Scene parameter name=value");
     double min_caustic_share = 0;
     app.add_option("--min-caustic-share", min_caustic_share,
                    "Place no caches (the render then stays unguided) when less than this fraction of the photon "
                    "power arrives through specular chains (default 0: always place them)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     bool no_scene_warnings = false;
-    app.add_flag("--no-scene-warnings", no_scene_warnings,
-                 "Do not print the scene's warnings (ignored parameters); pipelines/guided.mk passes it to the "
-                 "stages after trace-photons, which prints them once");
+    iris::add_scene_options(app, &defines, &no_scene_warnings);
     if (int rc = iris::parse_command_line(app, argc, argv, "place-caches"); rc >= 0) return rc;
     try {
         if (!resolution.empty()) iris::parse_resolution(resolution, &opt.width, &opt.height);

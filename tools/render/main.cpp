@@ -37,7 +37,6 @@ int main(int argc, char** argv) {
                    "Throughput below which Russian roulette plays, in (0, 1]; 1 = Mitsuba's rule (default 0.3)");
     app.add_flag("--variance", opt.variance_layer, "Add layers variance.R/G/B (variance of each pixel's estimate)");
     app.add_flag("--sample-count", opt.samples_layer, "Add a layer 'samples' with the samples per pixel");
-    app.add_option("-D,--define", defines, "Scene parameter name=value (for $name in the scene file)");
     app.add_option("--atlas", atlas_path, "Cache atlas from fill-caches: guide the path tracer with it");
     app.add_option("--mode", mode,
                    "How sampling techniques combine: nee+bsdf | nee+cache | bsdf+cache | nee+bsdf+cache "
@@ -80,9 +79,7 @@ int main(int argc, char** argv) {
                    "fixed --spp and --mode (not --time, not --mode auto or --caustics auto)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     bool no_scene_warnings = false;
-    app.add_flag("--no-scene-warnings", no_scene_warnings,
-                 "Do not print the scene's warnings (ignored parameters); pipelines/guided.mk passes it to the "
-                 "stages after trace-photons, which prints them once");
+    iris::add_scene_options(app, &defines, &no_scene_warnings);
     if (int rc = iris::parse_command_line(app, argc, argv, "render"); rc >= 0) return rc;
     try {
         if (opt.spp < 0) throw std::runtime_error("--spp must be positive, got " + std::to_string(opt.spp));
@@ -90,9 +87,8 @@ int main(int argc, char** argv) {
         if (!(opt.snapshot_interval >= 0 && std::isfinite(opt.snapshot_interval)))
             throw std::runtime_error("--snapshot must be a positive number of seconds");
         if (!sample_range.empty()) {
-            long long a = -1, b = -1;
-            char tail = 0;
-            if (std::sscanf(sample_range.c_str(), "%lld:%lld%c", &a, &b, &tail) != 2 || !(a >= 0 && a < b && b <= (1LL << 30)))
+            uint64_t a = 0, b = 0;
+            if (!iris::parse_range(sample_range, &a, &b) || b > (uint64_t(1) << 30))
                 throw std::runtime_error("--sample-range must be A:B with 0 <= A < B, got '" + sample_range + "'");
             opt.sample_begin = int(a);
             opt.sample_end = int(b);

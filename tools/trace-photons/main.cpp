@@ -32,25 +32,20 @@ int main(int argc, char** argv) {
                    "place-caches' threshold (the pipeline passes the same): when it is > 0 and no surface of the "
                    "scene has a specular (Dirac) lobe, the share is 0 whatever the photons, so none is traced "
                    "and the photon map is empty");
-    app.add_option("-D,--define", defines, "Scene parameter name=value");
     std::string path_range;
     app.add_option("--path-range", path_range,
                    "A:B -- trace only paths A..B-1 of the --paths in all (flux normalised by the total), seeded as in "
                    "one run; `merge-photons` joins the parts into the map of one run");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     bool no_scene_warnings = false;
-    app.add_flag("--no-scene-warnings", no_scene_warnings,
-                 "Do not print the scene's warnings (ignored parameters); pipelines/guided.mk passes it to the "
-                 "stages after trace-photons, which prints them once");
+    iris::add_scene_options(app, &defines, &no_scene_warnings);
     if (int rc = iris::parse_command_line(app, argc, argv, "trace-photons"); rc >= 0) return rc;
     try {
         if (paths <= 0) throw std::runtime_error("--paths must be positive, got " + std::to_string(paths));
         opt.paths = uint64_t(paths);
         if (!path_range.empty()) {
-            unsigned long long a = 0, b = 0;
-            char tail = 0;
-            if (path_range.find('-') != std::string::npos ||
-                std::sscanf(path_range.c_str(), "%llu:%llu%c", &a, &b, &tail) != 2 || !(a < b))
+            uint64_t a = 0, b = 0;
+            if (!iris::parse_range(path_range, &a, &b))
                 throw std::runtime_error("--path-range must be A:B with 0 <= A < B, got '" + path_range + "'");
             if (b > opt.paths)
                 throw std::runtime_error("--path-range " + path_range + " is not within the " + std::to_string(opt.paths) +
