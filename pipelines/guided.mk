@@ -22,6 +22,9 @@ OUT ?= out/$(NAME)
 SEED ?= 1
 THREADS ?= 0
 QUIET ?= -q
+# The image size WxH (empty: the scene's film). place-caches puts its camera caches on this image's
+# pixel blocks, and every render (guided, unguided, the reference) is made at it.
+RESOLUTION ?=
 
 # trace-photons
 PATHS ?= 250000
@@ -55,7 +58,7 @@ RENDER_FLAGS ?=
 # reference (unguided, long), kept outside the output folder so several runs share it
 REF_SPP ?= 1024
 REF_DIR ?= .cache/references
-REF := $(REF_DIR)/$(NAME)-$(REF_SPP)spp.exr
+REF := $(REF_DIR)/$(NAME)$(if $(RESOLUTION),-$(RESOLUTION))-$(REF_SPP)spp.exr
 
 COMMON := --seed $(SEED) -t $(THREADS) $(QUIET)
 # The scene's warnings (parameters iris ignores) are printed once, by trace-photons; the later stages read
@@ -63,19 +66,20 @@ COMMON := --seed $(SEED) -t $(THREADS) $(QUIET)
 # warnings show whenever they can have changed (`make ... photons` after deleting photons.h5 repeats them).
 NOWARN := --no-scene-warnings
 BUDGET := $(if $(filter 0,$(SPP)),--time $(TIME),--spp $(SPP))
+SIZE := $(if $(RESOLUTION),--resolution $(RESOLUTION))
 
 CMD_photons = $(BIN)/trace-photons $(SCENE) -o $(OUT)/photons.h5 --paths $(PATHS) --max-depth $(PHOTON_DEPTH) \
   --min-caustic-share $(MIN_CAUSTIC) $(COMMON)
 CMD_caches = $(BIN)/place-caches $(SCENE) --photons $(OUT)/photons.h5 -o $(OUT)/caches.h5 --count $(COUNT) \
-  --camera-stride $(STRIDE) --min-caustic-share $(MIN_CAUSTIC) $(NOWARN) $(COMMON)
+  --camera-stride $(STRIDE) --min-caustic-share $(MIN_CAUSTIC) $(SIZE) $(NOWARN) $(COMMON)
 CMD_atlas = $(BIN)/fill-caches $(OUT)/caches.h5 --photons $(OUT)/photons.h5 -o $(OUT)/atlas.h5 --k $(K) \
   --resolution $(RES) --filter-sigma $(SIGMA) --floor $(FLOOR) --max-radius $(MAX_RADIUS) \
   $(if $(filter bsdf+cache,$(MODE)),--direct) $(COMMON)
 CMD_guided = $(BIN)/render $(SCENE) --atlas $(OUT)/atlas.h5 --mode $(MODE) --bsdf-fraction $(BSDF_FRACTION) --caustics $(CAUSTICS) \
-  -o $(OUT)/guided.exr $(BUDGET) --variance $(RENDER_FLAGS) $(NOWARN) $(COMMON)
+  -o $(OUT)/guided.exr $(BUDGET) --variance $(SIZE) $(RENDER_FLAGS) $(NOWARN) $(COMMON)
 # The unguided budget is completed at run time with the measured preprocessing seconds.
-CMD_unguided = $(BIN)/render $(SCENE) -o $(OUT)/unguided.exr --mode nee+bsdf --variance $(RENDER_FLAGS) $(NOWARN) $(COMMON)
-CMD_reference = $(BIN)/render $(SCENE) -o $(REF) --mode nee+bsdf --spp $(REF_SPP) --seed 1000003 -t $(THREADS) $(NOWARN) $(QUIET)
+CMD_unguided = $(BIN)/render $(SCENE) -o $(OUT)/unguided.exr --mode nee+bsdf --variance $(SIZE) $(RENDER_FLAGS) $(NOWARN) $(COMMON)
+CMD_reference = $(BIN)/render $(SCENE) -o $(REF) --mode nee+bsdf --spp $(REF_SPP) --seed 1000003 $(SIZE) -t $(THREADS) $(NOWARN) $(QUIET)
 
 # Runs a command and records its wall time (seconds) in $(1).
 timed = start=$$(date +%s.%N); $(2); end=$$(date +%s.%N); awk -v a=$$start -v b=$$end 'BEGIN{printf "%.3f\n", b-a}' > $(1)
