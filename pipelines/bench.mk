@@ -6,6 +6,7 @@
 #   make -f pipelines/bench.mk full MODES=nee+bsdf,auto   # the two modes the targets compare (~50 min)
 #   make -f pipelines/bench.mk references TIER=quick   # only the references
 #   make -f pipelines/bench.mk params PARAM_SCENE=cbox_kugeln   # parameter studies on one scene (~10 min)
+#   make -f pipelines/bench.mk targets      # issue 25's equal-time targets, guided references (~55 min + references)
 #   make -f pipelines/bench.mk quick MODES=nee+bsdf,auto ONLY='ring bidir' REPORT=quick-some   # some scenes
 #
 # References are unguided long renders (the path tracer alone, independent of the guiding code), kept
@@ -82,7 +83,16 @@ PARAM_SCENE ?= cbox_kugeln
 PARAM_BUDGET ?= 24
 PARAM_STUDY ?= PATHS=62500,125000,250000,500000;COUNT=1000,4000,16000;K=250,500,1000,2000;RES=8,16,32;SIGMA=0,0.75,1.5
 
-.PHONY: plots quick full references runs report params FORCE
+.PHONY: plots quick full references runs report params targets FORCE
+# Issue 25's equal-time targets at half size (the spec glass box is cbox_kugeln at 256 x 256): the four
+# caustic seed scenes against guided references of 420 s, the two scenes without caustics against unguided
+# references of 1024 spp; budgets 15/30/60 s (15/30 s without caustics), 3 repeats, the two modes the
+# targets compare. Reports docs/benchmarks/targets-caustics.md and targets-plain.md (~55 min + references).
+targets:
+	@$(MAKE) -f pipelines/bench.mk TIER=quick REF_GUIDED=420 BUDGETS=15,30,60 MODES=nee+bsdf,auto REPEATS=3 \
+	  ONLY='cbox_kugeln cbox_spiegelboxen bidir ring' REPORT=targets-caustics report
+	@$(MAKE) -f pipelines/bench.mk TIER=quick REF_SPP=1024 BUDGETS=15,30 MODES=nee+bsdf,auto REPEATS=3 \
+	  ONLY='cbox_nur_box mi' REPORT=targets-plain report
 quick:
 	@$(MAKE) -f pipelines/bench.mk TIER=quick report
 full:
