@@ -9,7 +9,9 @@ seconds, measured by the caller, is counted inside the budget; pass 0 for config
 via NAME:0=FLAGS), the configurations' order reversed on every repeat, so that the shared machine's
 drift hits all alike. Per configuration the median relMSE (against REF) x total seconds is kept;
 efficiency = 1 / (relMSE x total seconds), and its ratio to the first configuration's is printed as a
-markdown table. Only the Python standard library is used.
+markdown table. A configuration named NAME@old renders with the tools in --old-bin instead (another build,
+e.g. a git worktree of the previous commit), so that two builds are compared in one run. Only the
+Python standard library is used.
 """
 import argparse
 import json
@@ -40,6 +42,7 @@ def main():
     ap.add_argument("--budget", type=float, required=True, help="total seconds per render, preprocessing included")
     ap.add_argument("--prep", type=float, default=0.0, help="preprocessing seconds of the guided configurations")
     ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--old-bin", help="the tools' folder of another build, for configurations named NAME@old")
     ap.add_argument("--config", action="append", required=True,
                     help="NAME=FLAGS (guided: preprocessing counted) or NAME:0=FLAGS (no preprocessing)")
     a = ap.parse_args()
@@ -55,7 +58,12 @@ def main():
         for r in range(a.repeats):
             for name, prep, flags in (configs if r % 2 == 0 else configs[::-1]):
                 out = os.path.join(tmp, "%s-%d.exr" % (name, r))
-                cmd = [BIN + "/render", a.scene, "-o", out, "--resolution", a.resolution, "--time",
+                bin_dir = BIN
+                if name.endswith("@old"):
+                    if not a.old_bin:
+                        sys.exit("bench-hybrid: %s needs --old-bin" % name)
+                    bin_dir = a.old_bin
+                cmd = [bin_dir + "/render", a.scene, "-o", out, "--resolution", a.resolution, "--time",
                        "%.3f" % (a.budget - prep), "--seed", str(7 + r), "-q"] + flags
                 wall, _ = run(cmd)
                 _, meta = run([BIN + "/compare-images", out, "--metadata"])

@@ -6,7 +6,9 @@
 //     centre that serves some point of the cell) or, outside the grid, the nearest cache serving the
 //     vertex, guiding or not, compared against brute force;
 //   - the BSDF fraction: a cache whose distribution is the cosine gains nothing and is not used, a
-//     peaked one gets a small alpha and a large predicted gain.
+//     peaked one gets a small alpha and a large predicted gain;
+//   - hybrid caches' path samples: their effective count is their number where they are alike, and
+//     about one where a single heavy sample carries the total.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -363,6 +365,27 @@ TEST(BsdfFraction, GuideSkipsCachesThatCannotBeatTheBsdf) {
     EXPECT_EQ(guide.summary().guiding, usable_peak);
     for (size_t c = 0; c < a.size(); ++c)
         EXPECT_EQ(guide.bsdf_fraction(int(c)) < 1.0f, a.usable[c] && c % 2 == 1) << "cache " << c;
+}
+
+}  // namespace
+}  // namespace iris
+
+namespace iris {
+namespace {
+
+TEST(PathSamples, EffectiveCountIsTheNumberOfAlikeSamplesAndOneForASingleHeavyOne) {
+    PathSamples s(3, 16);
+    for (int i = 0; i < 100; ++i) s.add(0, i % 16, 2.5f);  // alike: worth their number
+    EXPECT_EQ(s.count(0), 100u);
+    EXPECT_NEAR(s.effective_count(0), 100.0, 1e-6);
+    for (int i = 0; i < 99; ++i) s.add(1, 3, 0.01f);  // 99 light samples and one 1000x heavier
+    s.add(1, 7, 10.0f);
+    EXPECT_EQ(s.count(1), 100u);
+    EXPECT_NEAR(s.effective_count(1), (99 * 0.01 + 10.0) / 10.0, 1e-6);
+    s.add(2, 0, 0.0f);  // zero samples only (and NaN, counted as zero): worth nothing
+    s.add(2, 1, std::nanf(""));
+    EXPECT_EQ(s.count(2), 2u);
+    EXPECT_EQ(s.effective_count(2), 0.0);
 }
 
 }  // namespace

@@ -103,6 +103,7 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
         photon_pmf_.assign(n * N, 0.0f);
         current_pmf_.assign(n * N, 0.0f);
         path_used_.assign(n, 0);
+        path_effective_.assign(n, 0.0f);
         tbb::parallel_for(tbb::blocked_range<size_t>(0, n, 64), [&](const tbb::blocked_range<size_t>& range) {
             for (size_t c = range.begin(); c != range.end(); ++c) {
                 const float* pdf = atlas_.pdf_row(c);
@@ -319,10 +320,12 @@ RefitSummary Guide::refit(const PathSamples& s) {
             const double path_total = m.total();
             if (!(path_total > 0)) continue;  // only zero-radiance samples so far: keep the photons' map
             if (filtered) m.filter(filter);
-            // Mixed by sample counts: photons as photon_count, path samples as their number (each an
-            // estimate of the same distribution; the photon histogram is all zeros where unusable).
+            // Mixed by what each histogram is worth: photons (of about equal power in a cache) as
+            // photon_count, path samples as their effective count (PathSamples::effective_count); the
+            // photon histogram is all zeros where unusable.
             const double photons = atlas_.usable[c] ? double(atlas_.photon_count[c]) : 0.0;
-            const double lambda = double(count) / (double(count) + photons);
+            const double n_eff = s.effective_count(c);
+            const double lambda = n_eff / (n_eff + photons);
             const double total = m.total();
             const float* photon = &photon_pmf_[c * N];
             for (size_t k = 0; k < N; ++k)
@@ -331,8 +334,13 @@ RefitSummary Guide::refit(const PathSamples& s) {
             SphereDistribution::build(m.data(), R, cdf.data(), pdf.data());
             const double omega = 4.0 * M_PI / double(N);
             for (size_t k = 0; k < N; ++k) current_pmf_[c * N + k] = float(double(pdf[k]) * omega);
+            // A map worth fewer than kMinPathSamples samples in all does not guide (as fill-caches leaves
+            // a cache with too few photons unusable): a histogram of a handful of heavy samples is a few
+            // spikes, which the chooser would take for a sharply peaked distribution worth guiding with.
             float alpha = 1.0f;
-            if (!adaptive) {
+            if (photons + n_eff < double(kMinPathSamples)) {
+                alpha = 1.0f;
+            } else if (!adaptive) {
                 alpha = options_.bsdf_fraction;
             } else if (const BsdfFractionChoice choice = chooser.choose(pdf.data()); choice.gain >= options_.min_gain) {
                 alpha = choice.alpha;
@@ -341,6 +349,7 @@ RefitSummary Guide::refit(const PathSamples& s) {
             reinterpret_cast<float*>(dst)[kAlpha] = alpha;
             packed_map::encode(pdf.data(), R, dst + kHeader * sizeof(float));
             path_used_[c] = count;
+            path_effective_[c] = float(n_eff);
             refit += 1;
         }
     });
@@ -367,9 +376,12 @@ CacheAtlas Guide::refined_atlas() const {
         for (size_t c = range.begin(); c != range.end(); ++c) {
             // The current pmf is already floored: build() only normalises it and writes both tables.
             SphereDistribution::build(&current_pmf_[c * N], a.resolution, &a.cdf[c * N], &a.pdf[c * N]);
-            if (path_used_[c] > 0) {
+            // A cache refit from enough samples in all (photons and the path samples' effective
+            // count) is usable; its photon_count holds both, the weight a later --learn render gives it.
+            const double photons = a.usable[c] ? double(a.photon_count[c]) : 0.0;
+            if (path_used_[c] > 0 && photons + path_effective_[c] >= double(kMinPathSamples)) {
                 a.usable[c] = 1;
-                a.photon_count[c] += path_used_[c];
+                a.photon_count[c] = uint32_t(std::lround(photons + path_effective_[c]));
             }
         }
     });

@@ -57,19 +57,36 @@ struct GuideOptions {
 // same for any thread count.
 class PathSamples {
 public:
-    PathSamples(size_t caches, size_t texels) : texels_(texels), sum_(caches * texels), count_(caches) {}
+    PathSamples(size_t caches, size_t texels) : texels_(texels), sum_(caches * texels), count_(caches), max_(caches) {}
     static constexpr double kScale = 4294967296.0;  // 2^32 units per unit of value
     // Values above this are clamped (the map is only a guide; 2^16 x kScale x 2^15 samples fits 64 bits).
     static constexpr float kMaxValue = 65536.0f;
     void add(int cache, int texel, float value) {
         const float v = value > 0 ? std::min(value, kMaxValue) : 0.0f;  // NaN -> 0
-        sum_[size_t(cache) * texels_ + size_t(texel)].fetch_add(uint64_t(double(v) * kScale + 0.5),
-                                                               std::memory_order_relaxed);
+        const uint64_t u = uint64_t(double(v) * kScale + 0.5);
+        sum_[size_t(cache) * texels_ + size_t(texel)].fetch_add(u, std::memory_order_relaxed);
         count_[size_t(cache)].fetch_add(1, std::memory_order_relaxed);
+        // The largest sample (a maximum, like the sums, does not depend on the order of the adds).
+        std::atomic<uint64_t>& m = max_[size_t(cache)];
+        for (uint64_t cur = m.load(std::memory_order_relaxed); u > cur;)
+            if (m.compare_exchange_weak(cur, u, std::memory_order_relaxed)) break;
     }
     uint32_t count(size_t cache) const { return count_[cache].load(std::memory_order_relaxed); }
     double sum(size_t cache, size_t texel) const {
         return double(sum_[cache * texels_ + texel].load(std::memory_order_relaxed)) / kScale;
+    }
+    double max(size_t cache) const { return double(max_[cache].load(std::memory_order_relaxed)) / kScale; }
+    // How many samples cache c's histogram is worth: the count of equal-weight samples with the same
+    // total, sum / max, a lower bound of the effective sample size (sum)^2 / sum of squares. A path
+    // sample is L_i cos / p of one path: heavy-tailed (the rare path through a small opening carries
+    // most of the total), and after a few passes one or two samples make the whole histogram; counted
+    // as their number, they outweighed hundreds of photons (docs/benchmarks/hybrid.md).
+    double effective_count(size_t cache) const {
+        const double m = max(cache);
+        if (!(m > 0)) return 0.0;
+        double total = 0;
+        for (size_t k = 0; k < texels_; ++k) total += sum(cache, k);
+        return std::min(double(count(cache)), total / m);
     }
     size_t texels() const { return texels_; }
     size_t caches() const { return count_.size(); }
@@ -78,6 +95,7 @@ private:
     size_t texels_;
     std::vector<std::atomic<uint64_t>> sum_;
     std::vector<std::atomic<uint32_t>> count_;
+    std::vector<std::atomic<uint64_t>> max_;  // per cache, the largest sample (kScale units)
 };
 
 // What a refit changed.
@@ -205,7 +223,8 @@ public:
     RefitSummary refit(const PathSamples& s);
     static constexpr uint32_t kMinPathSamples = 32;
     // The atlas with the maps as they stand (photons and path samples), for render --write-atlas:
-    // refit caches are usable, and their photon_count holds photons plus path samples.
+    // caches refit from enough samples are usable, and their photon_count holds photons plus the path
+    // samples' effective count.
     CacheAtlas refined_atlas() const;
 
 private:
@@ -303,7 +322,8 @@ private:
     // With learning: per cache, the photon map as a pmf without its floor (N values summing to 1; all
     // zero for unusable caches), and the current map's pmf (floored) as the guide samples it.
     std::vector<float> photon_pmf_, current_pmf_;
-    std::vector<uint32_t> path_used_;  // path samples in each cache's current map
+    std::vector<uint32_t> path_used_;      // path samples in each cache's current map
+    std::vector<float> path_effective_;    // and their effective count (PathSamples::effective_count)
     GuideOptions options_;
 };
 
