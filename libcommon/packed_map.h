@@ -124,7 +124,8 @@ inline void prefetch_row(const unsigned char* map, int R, int j) {
 // texel in the row and the position along u inside it. Like SphereDistribution::sample, a point within
 // kEdgeMargin of its texel's edge has its texel re-derived from the direction.
 // `j` is row_of(map, R, u.x), found by the caller (who prefetched that row meanwhile).
-inline Vec3 sample(const unsigned char* map, int R, Vec2 u, int j, float per_sr, float* pdf) {
+// (texel, where given, receives the index dj R + di of the texel whose density *pdf is.)
+inline Vec3 sample(const unsigned char* map, int R, Vec2 u, int j, float per_sr, float* pdf, int* texel_index = nullptr) {
     constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
     const float tx = clamp_unit(u.x) * float(kRowTotal), ty = clamp_unit(u.y) * float(kRowTotal);
     const uint16_t* ends = row_end(map);  // j < R: tx < kRowTotal = ends[R - 1]
@@ -143,6 +144,7 @@ inline Vec3 sample(const unsigned char* map, int R, Vec2 u, int j, float per_sr,
     int di = i, dj = j;  // the texel whose density applies
     if (near_edge) sphere_texel_of(w, R, &di, &dj);
     *pdf = di == i && dj == j ? density(row, texel, per_sr) : texel_pdf(map, R, di, dj, per_sr);
+    if (texel_index) *texel_index = dj * R + di;
     return w;
 }
 inline Vec3 sample(const unsigned char* map, int R, Vec2 u, float per_sr, float* pdf) {

@@ -375,15 +375,16 @@ namespace {
 
 TEST(PathSamples, EffectiveCountIsTheNumberOfAlikeSamplesAndOneForASingleHeavyOne) {
     PathSamples s(3, 16);
-    for (int i = 0; i < 100; ++i) s.add(0, i % 16, 2.5f);  // alike: worth their number
+    PathSamples::Writer w = s.writer();
+    for (int i = 0; i < 100; ++i) w.add(0, i % 16, 2.5f);  // alike: worth their number
     EXPECT_EQ(s.count(0), 100u);
     EXPECT_NEAR(s.effective_count(0), 100.0, 1e-6);
-    for (int i = 0; i < 99; ++i) s.add(1, 3, 0.01f);  // 99 light samples and one 1000x heavier
-    s.add(1, 7, 10.0f);
+    for (int i = 0; i < 99; ++i) w.add(1, 3, 0.01f);  // 99 light samples and one 1000x heavier
+    w.add(1, 7, 10.0f);
     EXPECT_EQ(s.count(1), 100u);
     EXPECT_NEAR(s.effective_count(1), (99 * 0.01 + 10.0) / 10.0, 1e-6);
-    s.add(2, 0, 0.0f);  // zero samples only (and NaN, counted as zero): worth nothing
-    s.add(2, 1, std::nanf(""));
+    w.add(2, 0, 0.0f);  // zero samples only (and NaN, counted as zero): worth nothing
+    w.add(2, 1, std::nanf(""));
     EXPECT_EQ(s.count(2), 2u);
     EXPECT_EQ(s.effective_count(2), 0.0);
 }

@@ -49,17 +49,16 @@ constexpr float kLookupSlack = 1.5f;
 constexpr float kLookupNormalCos = 0.7071f;
 }  // namespace
 
-// 2 MiB-aligned (the huge page size on x86-64) and advised for transparent huge pages.
-std::unique_ptr<unsigned char[], Guide::FreeTable> Guide::allocate_table(size_t bytes) {
+HugeMemory allocate_huge(size_t bytes) {
     constexpr size_t kHuge = size_t(2) << 20;
     const size_t size = (bytes + kHuge - 1) / kHuge * kHuge;
     void* p = std::aligned_alloc(kHuge, size);
     if (!p) throw std::bad_alloc();
-    madvise(p, size, MADV_HUGEPAGE);  // advice only: without it the table is still correct
-    return std::unique_ptr<unsigned char[], FreeTable>(static_cast<unsigned char*>(p));
+    madvise(p, size, MADV_HUGEPAGE);  // advice only: without it the memory is still correct
+    return HugeMemory(static_cast<unsigned char*>(p));
 }
 
-void Guide::FreeTable::operator()(unsigned char* p) const { std::free(p); }
+void FreeHuge::operator()(void* p) const { std::free(p); }
 
 Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas)), options_(o) {
     const bool adaptive = o.bsdf_fraction < 0;
@@ -70,7 +69,7 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
     const size_t N = atlas_.texels();
     stride_ = bytes_per_cache(R);
     per_sr_ = float(N) * kInv4Pi;
-    table_ = allocate_table(std::max<size_t>(1, n * stride_));
+    table_ = allocate_huge(std::max<size_t>(1, n * stride_));
     summary_.table_bytes = n * stride_;
     summary_.caches = n;
     // At least 0.2: the map is an estimate from a few hundred photons gathered over a disc, so BSDF
@@ -91,7 +90,8 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
                     alpha = choice.alpha;
                 }
             }
-            const float h[kHeader] = {f.s.x, f.s.y, f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, alpha};
+            const float h[kHeader] = {f.s.x, f.s.y, f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, alpha,
+                                      o.learn ? 1.0f : 0.0f};
             std::copy(h, h + kHeader, reinterpret_cast<float*>(dst));
             packed_map::encode(atlas_.pdf_row(c), R, dst + kHeader * sizeof(float));
         }
@@ -289,9 +289,9 @@ int Guide::first_serving(const std::vector<uint32_t>& claimants, const uint32_t*
     return -1;
 }
 
-Vec3 Guide::sample(int c, Vec2 u, int row, float* pdf) const {
+Vec3 Guide::sample(int c, Vec2 u, int row, float* pdf, int* texel) const {
     float p;
-    const Vec3 local = at_resolution([&](auto R) { return packed_map::sample(map(c), R, u, row, per_sr_, &p); });
+    const Vec3 local = at_resolution([&](auto R) { return packed_map::sample(map(c), R, u, row, per_sr_, &p, texel); });
     if (pdf) *pdf = p;
     return frame(c).to_world(local);
 }
@@ -347,6 +347,7 @@ RefitSummary Guide::refit(const PathSamples& s) {
             }
             unsigned char* dst = table_.get() + c * stride_;
             reinterpret_cast<float*>(dst)[kAlpha] = alpha;
+            reinterpret_cast<float*>(dst)[kRecord] = photons + n_eff >= kSaturatedSamples ? 0.0f : 1.0f;
             packed_map::encode(pdf.data(), R, dst + kHeader * sizeof(float));
             path_used_[c] = count;
             path_effective_[c] = float(n_eff);
@@ -361,6 +362,7 @@ RefitSummary Guide::refit(const PathSamples& s) {
             ++r.guiding;
             sum_alpha += bsdf_fraction(int(c));
         }
+    for (size_t c = 0; c < n; ++c) r.saturated += records(int(c)) ? 0 : 1;
     summary_.guiding = r.guiding;
     summary_.mean_alpha = r.guiding == 0 ? 1.0 : sum_alpha / double(r.guiding);
     return r;

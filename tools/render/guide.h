@@ -10,9 +10,12 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <new>
 #include <string>
 #include <type_traits>
 #include <vector>
+
+#include <tbb/enumerable_thread_specific.h>
 
 #include "formats/cache_atlas.h"
 #include "libcommon/math.h"
@@ -48,6 +51,15 @@ struct GuideOptions {
     bool learn = false;
 };
 
+// Memory for tables that path vertices read or write at random (megabytes; every access would otherwise
+// also miss the TLB): 2 MiB-aligned (the huge page size on x86-64) and advised for transparent huge
+// pages. Not initialised.
+struct FreeHuge {
+    void operator()(void* p) const;
+};
+using HugeMemory = std::unique_ptr<unsigned char[], FreeHuge>;
+HugeMemory allocate_huge(size_t bytes);
+
 // The radiance that guided path vertices received, per cache and texel of the cache's map, summed over
 // the render's passes: each sample adds L_i(w) cos(theta_c) / p(w) for the continuation direction w
 // (theta_c: against the cache's normal; p: the density w was sampled with), whose expectation per texel
@@ -56,26 +68,72 @@ struct GuideOptions {
 // depend on the order in which threads add, so the maps refit from them, and hence the image, are the
 // same for any thread count.
 class PathSamples {
+    // One thread's part (see Writer).
+    struct Local {
+        explicit Local(size_t caches) : count(caches, 0), max(caches, 0) {}
+        std::vector<uint32_t> count;  // samples per cache
+        std::vector<uint64_t> max;    // largest sample per cache (kScale units)
+    };
+
 public:
-    PathSamples(size_t caches, size_t texels) : texels_(texels), sum_(caches * texels), count_(caches), max_(caches) {}
+    PathSamples(size_t caches, size_t texels)
+        : texels_(texels), caches_(caches), memory_(allocate_huge(std::max<size_t>(1, caches * texels) * sizeof(Sum))),
+          sum_(reinterpret_cast<Sum*>(memory_.get())), local_([caches] { return Local(caches); }) {
+        for (size_t k = 0; k < caches * texels; ++k) new (&sum_[k]) Sum(0);
+    }
+    PathSamples(const PathSamples&) = delete;
+    PathSamples& operator=(const PathSamples&) = delete;
     static constexpr double kScale = 4294967296.0;  // 2^32 units per unit of value
     // Values above this are clamped (the map is only a guide; 2^16 x kScale x 2^15 samples fits 64 bits).
     static constexpr float kMaxValue = 65536.0f;
-    void add(int cache, int texel, float value) {
-        const float v = value > 0 ? std::min(value, kMaxValue) : 0.0f;  // NaN -> 0
-        const uint64_t u = uint64_t(double(v) * kScale + 0.5);
-        sum_[size_t(cache) * texels_ + size_t(texel)].fetch_add(u, std::memory_order_relaxed);
-        count_[size_t(cache)].fetch_add(1, std::memory_order_relaxed);
-        // The largest sample (a maximum, like the sums, does not depend on the order of the adds).
-        std::atomic<uint64_t>& m = max_[size_t(cache)];
-        for (uint64_t cur = m.load(std::memory_order_relaxed); u > cur;)
-            if (m.compare_exchange_weak(cur, u, std::memory_order_relaxed)) break;
+
+    // What one thread adds: each sample's value to the shared histograms (atomic), and its count and
+    // largest sample per cache to the thread's own arrays (a cache's counter, shared, would bounce
+    // between the cores' caches at every sample: deep vertices of all threads land in the same caches).
+    // Take one per path (writer() looks the thread up).
+    class Writer {
+    public:
+        void add(int cache, int texel, float value) {
+            const float v = value > 0 ? std::min(value, kMaxValue) : 0.0f;  // NaN -> 0
+            const uint64_t u = uint64_t(double(v) * kScale + 0.5);
+            s_->sum_[size_t(cache) * s_->texels_ + size_t(texel)].fetch_add(u, std::memory_order_relaxed);
+            local_->count[size_t(cache)] += 1;
+            local_->max[size_t(cache)] = std::max(local_->max[size_t(cache)], u);
+        }
+        // Starts loading, for writing, the histogram line add(cache, texel, ...) will update: a vertex
+        // knows its texel when it samples its continuation and adds at the end of the path, by which
+        // time the line (one of megabytes of histograms, rarely in the CPU's caches) has arrived.
+        void prefetch(int cache, int texel) const {
+            __builtin_prefetch(&s_->sum_[size_t(cache) * s_->texels_ + size_t(texel)], 1);
+        }
+
+    private:
+        friend class PathSamples;
+        Local* local_ = nullptr;
+        PathSamples* s_ = nullptr;
+    };
+    Writer writer() {
+        Writer w;
+        w.local_ = &local_.local();
+        w.s_ = this;
+        return w;
     }
-    uint32_t count(size_t cache) const { return count_[cache].load(std::memory_order_relaxed); }
+
+    // Read between passes (no thread adding): the sums over threads -- integer sums and a maximum,
+    // which do not depend on the order in which threads added.
+    uint32_t count(size_t cache) const {
+        uint32_t n = 0;
+        for (const Local& l : local_) n += l.count[cache];
+        return n;
+    }
     double sum(size_t cache, size_t texel) const {
         return double(sum_[cache * texels_ + texel].load(std::memory_order_relaxed)) / kScale;
     }
-    double max(size_t cache) const { return double(max_[cache].load(std::memory_order_relaxed)) / kScale; }
+    double max(size_t cache) const {
+        uint64_t m = 0;
+        for (const Local& l : local_) m = std::max(m, l.max[cache]);
+        return double(m) / kScale;
+    }
     // How many samples cache c's histogram is worth: the count of equal-weight samples with the same
     // total, sum / max, a lower bound of the effective sample size (sum)^2 / sum of squares. A path
     // sample is L_i cos / p of one path: heavy-tailed (the rare path through a small opening carries
@@ -89,19 +147,22 @@ public:
         return std::min(double(count(cache)), total / m);
     }
     size_t texels() const { return texels_; }
-    size_t caches() const { return count_.size(); }
+    size_t caches() const { return caches_; }
 
 private:
-    size_t texels_;
-    std::vector<std::atomic<uint64_t>> sum_;
-    std::vector<std::atomic<uint32_t>> count_;
-    std::vector<std::atomic<uint64_t>> max_;  // per cache, the largest sample (kScale units)
+    using Sum = std::atomic<uint64_t>;
+    static_assert(std::is_trivially_destructible_v<Sum>);
+    size_t texels_, caches_;
+    HugeMemory memory_;  // the histograms: caches x texels sums, kScale units
+    Sum* sum_;
+    tbb::enumerable_thread_specific<Local> local_;
 };
 
 // What a refit changed.
 struct RefitSummary {
     size_t refit = 0;    // caches whose map now includes path samples
     size_t guiding = 0;  // caches that guide after it
+    size_t saturated = 0;  // caches that no longer record path samples (Guide::records)
 };
 
 // What the guide decided at load time, for the render's report.
@@ -174,7 +235,8 @@ public:
             return j;
         });
     }
-    Vec3 sample(int c, Vec2 u, int row, float* pdf) const;
+    // (texel, where given, receives the sampled direction's texel index j R + i, as texel_index().)
+    Vec3 sample(int c, Vec2 u, int row, float* pdf, int* texel = nullptr) const;
     // Density per steradian with which sample(c, ...) produces the world direction w.
     float pdf(int c, Vec3 w) const { return texel_pdf(c, texel(c, w)); }
 
@@ -209,10 +271,8 @@ public:
     bool learning() const { return !photon_pmf_.empty(); }
     // Texel index k = j R + i of the world direction w in cache c's map, and w's cosine against the
     // cache's normal.
-    int texel_index(int c, Vec3 w) const {
-        const Texel t = texel(c, w);
-        return t.j * atlas_.resolution + t.i;
-    }
+    int texel_index(int c, Vec3 w) const { return texel_index(texel(c, w)); }
+    int texel_index(Texel t) const { return t.j * atlas_.resolution + t.i; }
     float cos_normal(int c, Vec3 w) const { return dot(frame(c).n, w); }
     // Re-fits the map of every cache with at least kMinPathSamples samples in `s` from its photon map
     // and the path samples: the two normalised histograms mixed by their sample counts (photons counted
@@ -222,6 +282,12 @@ public:
     // between passes).
     RefitSummary refit(const PathSamples& s);
     static constexpr uint32_t kMinPathSamples = 32;
+    // Whether a learning render still adds path samples at cache c. Recording costs a random access into
+    // the samples' histograms per vertex (+27 % time per sample on the door, every vertex guided); once
+    // a cache's map is worth kSaturatedSamples (photons + the path samples' effective count) further
+    // samples barely move it, and the cache stops recording (decided at a refit: between passes).
+    bool records(int c) const { return header(c)[kRecord] != 0; }
+    static constexpr double kSaturatedSamples = 1024;
     // The atlas with the maps as they stand (photons and path samples), for render --write-atlas:
     // caches refit from enough samples are usable, and their photon_count holds photons plus the path
     // samples' effective count.
@@ -299,12 +365,10 @@ private:
     //    (libcommon/packed_map.h): row ends, then each row's cumulative texel counts]
     // The header's line and the row ends are what every guided vertex needs (alpha 1 = not guiding),
     // adjacent so that they load together; a density or a sample then reads one row's counts.
-    static constexpr size_t kHeader = 16, kAlpha = 9;  // in floats
-    struct FreeTable {
-        void operator()(unsigned char* p) const;
-    };
-    static std::unique_ptr<unsigned char[], FreeTable> allocate_table(size_t bytes);
-    std::unique_ptr<unsigned char[], FreeTable> table_;
+    // kRecord: 1 where a learning render still records path samples at the cache (its header is read
+    // anyway), 0 once the cache's map is worth kSaturatedSamples.
+    static constexpr size_t kHeader = 16, kAlpha = 9, kRecord = 10;  // in floats
+    HugeMemory table_;
     size_t stride_ = 0;  // bytes
     float per_sr_ = 0;   // N / (4 pi): texel probability -> density per steradian
     const unsigned char* block(int c) const { return table_.get() + size_t(c) * stride_; }

@@ -68,19 +68,22 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         float cos_over_pdf, beta_after;
         RGB L_before;
     };
+    PathSamples::Writer writer = samples ? samples->writer() : PathSamples::Writer{};
     constexpr int kMaxRecorded = 16;
     Recorded recorded[kMaxRecorded];
     int n_recorded = 0;
-    auto record = [&](int c, Vec3 wo_world, float p) {
-        if (n_recorded == kMaxRecorded) return;
+    // (texel: wo_world's in cache c's map, Guide::texel_index.)
+    auto record = [&](int c, int texel, Vec3 wo_world, float p) {
+        if (n_recorded == kMaxRecorded || !guide->records(c)) return;
         const float cos_c = guide->cos_normal(c, wo_world);
         const float b = luminance(beta);
         if (!(cos_c > 0) || !(p > 0) || !(b > 0)) {
             // A direction below the cache's horizon, or a path carrying nothing: counts as a zero sample.
-            samples->add(c, guide->texel_index(c, wo_world), 0.0f);
+            writer.add(c, texel, 0.0f);
             return;
         }
-        recorded[n_recorded++] = {c, guide->texel_index(c, wo_world), cos_c / p, b, L};
+        writer.prefetch(c, texel);
+        recorded[n_recorded++] = {c, texel, cos_c / p, b, L};
     };
     // Emission le that the path reached at its depth-th vertex from light `light_index` (p, n: the point
     // and normal on an emitter; zero for the environment). Paths do not end at lights (an emitter may also
@@ -272,11 +275,12 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 beta *= bs.weight * (bs.pdf / p);
                 prev_pdf = p;
                 prev_delta = false;
-                if (samples) record(cache, wo_world, p);
+                if (samples) record(cache, guide->texel_index(bsdf_texel), wo_world, p);
             }
         } else {
             float p_cache;
-            wo_world = guide->sample(cache, u, sample_row, &p_cache);
+            int texel = 0;
+            wo_world = guide->sample(cache, u, sample_row, &p_cache, samples ? &texel : nullptr);
             const Vec3 wo = hit.frame.to_local(wo_world);
             if (!(p_cache > 0) || !consistent_side(wo_world, hit.ng, wo.z)) break;
             const float p = mix_from(wo, bsdf_pdf(bsdf, wi, wo), p_cache);
@@ -285,7 +289,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             beta *= f / p;
             prev_pdf = p;
             prev_delta = false;
-            if (samples) record(cache, wo_world, p);
+            if (samples) record(cache, texel, wo_world, p);
         }
         if (is_black(beta)) break;
         caustic_chain = depth == 1 ? !prev_delta : caustic_chain && prev_delta;
@@ -306,7 +310,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
     for (int r = 0; r < n_recorded; ++r) {
         const Recorded& v = recorded[r];
         const float li = luminance(L - v.L_before) / v.beta_after;
-        samples->add(v.cache, v.texel, li * v.cos_over_pdf);
+        writer.add(v.cache, v.texel, li * v.cos_over_pdf);
     }
     return L;
 }
@@ -782,8 +786,8 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         if (ps.guide) img.metadata["iris:guiding"] = describe(ps);
         if (path_samples) {
             char buf[160];
-            std::snprintf(buf, sizeof buf, "%d refits from path samples (%.3f s), %zu caches refit, %zu guiding", refits,
-                          refit_seconds, last_refit.refit, last_refit.guiding);
+            std::snprintf(buf, sizeof buf, "%d refits from path samples (%.3f s), %zu caches refit, %zu guiding, %zu saturated",
+                          refits, refit_seconds, last_refit.refit, last_refit.guiding, last_refit.saturated);
             img.metadata["iris:hybrid_caches"] = buf;
         }
         img.metadata["iris:light_paths"] = std::to_string(uint64_t(spp) * light_paths_per_sample);
