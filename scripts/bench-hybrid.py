@@ -9,7 +9,8 @@ seconds, measured by the caller, is counted inside the budget; pass 0 for config
 via NAME:0=FLAGS), the configurations' order reversed on every repeat, so that the shared machine's
 drift hits all alike. Per configuration the median relMSE (against REF) x total seconds is kept;
 efficiency = 1 / (relMSE x total seconds), and its ratio to the first configuration's is printed as a
-markdown table. A configuration named NAME@old renders with the tools in --old-bin instead (another build,
+markdown table, also with the reference's own noise taken out of every relMSE (where REF has variance
+layers: compare-images' relmse_reference_noise). A configuration named NAME@old renders with the tools in --old-bin instead (another build,
 e.g. a git worktree of the previous commit), so that two builds are compared in one run. Only the
 Python standard library is used.
 """
@@ -71,22 +72,27 @@ def main():
                 _, js = run([BIN + "/compare-images", out, a.reference, "--json"])
                 c = json.loads(js)
                 total = wall + prep
+                # The reference's own noise (from its variance layers, where it has them) taken out.
+                net = max(c["relmse"] - c.get("relmse_reference_noise", 0.0), 1e-12)
                 rows[name].append(dict(relmse=c["relmse"], total=total, spp=int(m["iris:spp"]),
-                                       cost=c["relmse"] * total, hybrid=m.get("iris:hybrid_caches", "")))
+                                       cost=c["relmse"] * total, net_cost=net * total,
+                                       hybrid=m.get("iris:hybrid_caches", "")))
                 print("%-12s seed %d: relMSE %.4g, %d spp, %.2f s total" % (name, 7 + r, c["relmse"],
                       int(m["iris:spp"]), total), file=sys.stderr)
-    base = None
-    print("| setting | flags | relMSE (median) | spp | total s | efficiency | vs %s |" % configs[0][0])
-    print("|---|---|---|---|---|---|---|")
+    base = base_net = None
+    print("| setting | flags | relMSE (median; all) | spp | total s | efficiency | vs %s | same, ref. noise removed |"
+          % configs[0][0])
+    print("|---|---|---|---|---|---|---|---|")
     for name, prep, flags in configs:
         xs = sorted(rows[name], key=lambda x: x["cost"])
         med = xs[len(xs) // 2]
         eff = 1.0 / med["cost"]
+        eff_net = 1.0 / statistics.median(x["net_cost"] for x in rows[name])
         if base is None:
-            base = eff
-        print("| %s | `%s` | %.4g (%s) | %d | %.1f | %.3g | **%.2f** |" % (
+            base, base_net = eff, eff_net
+        print("| %s | `%s` | %.4g (%s) | %d | %.1f | %.3g | **%.2f** | %.2f |" % (
             name, " ".join(flags), med["relmse"], " / ".join("%.4g" % x["relmse"] for x in rows[name]), med["spp"],
-            med["total"], eff, eff / base))
+            med["total"], eff, eff / base, eff_net / base_net))
 
 
 if __name__ == "__main__":

@@ -389,5 +389,42 @@ TEST(PathSamples, EffectiveCountIsTheNumberOfAlikeSamplesAndOneForASingleHeavyOn
     EXPECT_EQ(s.effective_count(2), 0.0);
 }
 
+// Guide::refit weighs path samples by their effective count: one heavy sample among light ones barely
+// moves a map of 100 photons (counted as their number, the 100 samples would have taken half of it, most
+// of that in the heavy sample's texel), and a cache without photons guides only once its samples are
+// worth kMinPathSamples.
+TEST(HybridRefit, HeavyTailedSamplesAreWorthTheirEffectiveCount) {
+    CacheAtlas a = plane_atlas(4, 21);  // maps uniform; cache 3 unusable
+    for (auto& n : a.photon_count) n = 100;
+    GuideOptions o;
+    o.learn = true;
+    Guide guide(a, o);
+    ASSERT_EQ(guide.bsdf_fraction(3), 1.0f);
+    PathSamples s(a.size(), a.texels());
+    PathSamples::Writer w = s.writer();
+    for (int i = 0; i < 99; ++i) w.add(0, 3, 0.01f);
+    w.add(0, 7, 10.0f);
+    for (int i = 0; i < 99; ++i) w.add(3, 3, 0.01f);  // cache 3: worth about one sample
+    w.add(3, 7, 10.0f);
+    const float uniform = guide.texel_pdf(0, 0);
+    guide.refit(s);
+    // Cache 0: lambda = 1.1 / 101, so texel 7 gains about 1 % of the map's mass (old weighting: ~45 %).
+    const float floor_share = float(a.floor) / float(a.texels());
+    const float before = (1 - float(a.floor)) / float(a.texels()) + floor_share;
+    EXPECT_LT(guide.texel_pdf(0, 7), uniform * (1 + 0.02f / before));
+    EXPECT_GT(guide.texel_pdf(0, 7), uniform);
+    EXPECT_EQ(guide.bsdf_fraction(3), 1.0f) << "a map worth one sample guides";
+    EXPECT_TRUE(guide.records(3));
+
+    // 40 more alike samples in cache 3's texel 5: now worth 32 or more, it may guide (its map is one texel
+    // on a floor, which the chooser predicts to gain).
+    PathSamples more(a.size(), a.texels());
+    PathSamples::Writer w2 = more.writer();
+    for (int i = 0; i < 40; ++i) w2.add(3, 5, 1.0f);
+    guide.refit(more);
+    EXPECT_LT(guide.bsdf_fraction(3), 1.0f);
+    EXPECT_GT(guide.texel_pdf(3, 5), 5 * guide.texel_pdf(3, 0));
+}
+
 }  // namespace
 }  // namespace iris

@@ -275,11 +275,11 @@ public:
     int texel_index(Texel t) const { return t.j * atlas_.resolution + t.i; }
     float cos_normal(int c, Vec3 w) const { return dot(frame(c).n, w); }
     // Re-fits the map of every cache with at least kMinPathSamples samples in `s` from its photon map
-    // and the path samples: the two normalised histograms mixed by their sample counts (photons counted
-    // as photon_count, path samples as their number), the path histogram smoothed with the atlas's
-    // filter, the atlas's floor mixed in, as fill-caches does; then its BSDF share is chosen again and
-    // its packed map rebuilt. Must not run while any thread samples the guide (the render calls it
-    // between passes).
+    // and the path samples: the two normalised histograms mixed by what each is worth (photons counted
+    // as photon_count, path samples as their effective count), the path histogram smoothed with the
+    // atlas's filter, the atlas's floor mixed in, as fill-caches does; then its BSDF share is chosen
+    // again (no guiding below kMinPathSamples in all) and its packed map rebuilt. Must not run while any
+    // thread samples the guide (the render calls it between passes).
     RefitSummary refit(const PathSamples& s);
     static constexpr uint32_t kMinPathSamples = 32;
     // Whether a learning render still adds path samples at cache c. Recording costs a random access into
