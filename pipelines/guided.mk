@@ -54,7 +54,11 @@ BSDF_FRACTION ?= auto
 # Light tracing of the caustics seen directly (render --caustics): auto (MODE=auto's default: where they
 # are at least 0.1 % of the image or the pilot predicts a gain) | on | off.
 CAUSTICS ?= $(if $(filter auto,$(MODE)),auto,off)
+# Extra render flags: RENDER_FLAGS for both renders, GUIDE_FLAGS for the guided one only (e.g. hybrid
+# caches where photons reach the visible part badly, with a fixed guided mode:
+#   MODE=nee+bsdf+cache GUIDE_FLAGS='--learn --guide-vertices 0 --rr-threshold 0.1'; docs/benchmarks/hybrid.md).
 RENDER_FLAGS ?=
+GUIDE_FLAGS ?=
 # reference (unguided, long), kept outside the output folder so several runs share it
 REF_SPP ?= 1024
 REF_DIR ?= .cache/references
@@ -76,7 +80,7 @@ CMD_atlas = $(BIN)/fill-caches $(OUT)/caches.h5 --photons $(OUT)/photons.h5 -o $
   --resolution $(RES) --filter-sigma $(SIGMA) --floor $(FLOOR) --max-radius $(MAX_RADIUS) \
   $(if $(filter bsdf+cache,$(MODE)),--direct) $(COMMON)
 CMD_guided = $(BIN)/render $(SCENE) --atlas $(OUT)/atlas.h5 --mode $(MODE) --bsdf-fraction $(BSDF_FRACTION) --caustics $(CAUSTICS) \
-  -o $(OUT)/guided.exr $(BUDGET) --variance $(SIZE) $(RENDER_FLAGS) $(NOWARN) $(COMMON)
+  -o $(OUT)/guided.exr $(BUDGET) --variance $(SIZE) $(RENDER_FLAGS) $(GUIDE_FLAGS) $(NOWARN) $(COMMON)
 # The unguided budget is completed at run time with the measured preprocessing seconds.
 CMD_unguided = $(BIN)/render $(SCENE) -o $(OUT)/unguided.exr --mode nee+bsdf --variance $(SIZE) $(RENDER_FLAGS) $(NOWARN) $(COMMON)
 CMD_reference = $(BIN)/render $(SCENE) -o $(REF) --mode nee+bsdf --spp $(REF_SPP) --seed 1000003 $(SIZE) -t $(THREADS) $(NOWARN) $(QUIET)
