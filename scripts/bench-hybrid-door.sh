@@ -5,8 +5,8 @@
 #
 #   make -f pipelines/bench.mk hybrid          (or: bash scripts/bench-hybrid-door.sh)
 #
-# Two photon budgets: 25k photon paths (photons reach the near room badly: its caches are blurred over
-# wide discs and few of them are predicted to gain) and the pipeline's default 250k. Two references, each
+# Two photon budgets: 25k photon paths (photons reach the near room badly: at equal time their caches
+# gain nothing over unguided sampling) and the pipeline's default 250k. Two references, each
 # checked against the other: an unguided one (2048 spp) and a hybrid one (300 s; 12x less noise for the
 # time); the tables are measured against the hybrid one, and also give each ratio with the reference's
 # noise removed.
