@@ -10,7 +10,9 @@ via NAME:0=FLAGS), the configurations' order reversed on every repeat, so that t
 drift hits all alike. Per configuration the median relMSE (against REF) x total seconds is kept;
 efficiency = 1 / (relMSE x total seconds), and its ratio to the first configuration's is printed as a
 markdown table, also with the reference's own noise taken out of every relMSE (where REF has variance
-layers: compare-images' relmse_reference_noise). A configuration named NAME@old renders with the tools in --old-bin instead (another build,
+layers: compare-images' relmse_reference_noise; that column takes statistics.median of the net relMSE x
+seconds, which with an even number of repeats is the mean of the middle two, where the plain column keeps
+the upper one). A configuration named NAME@old renders with the tools in --old-bin instead (another build,
 e.g. a git worktree of the previous commit), so that two builds are compared in one run. Only the
 Python standard library is used.
 """

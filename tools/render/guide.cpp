@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdio>
 #include <cstdlib>
 #include <cmath>
 #include <stdexcept>
@@ -61,8 +62,7 @@ HugeMemory allocate_huge(size_t bytes) {
 void FreeHuge::operator()(void* p) const { std::free(p); }
 
 Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas)), options_(o) {
-    const bool adaptive = o.bsdf_fraction < 0;
-    if (!adaptive && !(o.bsdf_fraction < 1)) throw std::runtime_error("--bsdf-fraction must be in [0, 1)");
+    if (!(o.bsdf_fraction < 0) && !(o.bsdf_fraction < 1)) throw std::runtime_error("--bsdf-fraction must be in [0, 1)");
     if (!(o.min_gain >= 1) || !std::isfinite(o.min_gain)) throw std::runtime_error("--min-gain must be >= 1");
     const size_t n = atlas_.size();
     const int R = atlas_.resolution;
@@ -82,14 +82,7 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
         for (size_t c = range.begin(); c != range.end(); ++c) {
             unsigned char* dst = table_.get() + c * stride_;
             const Frame f(atlas_.normal[c]);
-            float alpha = 1.0f;
-            if (atlas_.usable[c]) {
-                if (!adaptive) {
-                    alpha = o.bsdf_fraction;
-                } else if (const BsdfFractionChoice choice = chooser.choose(atlas_.pdf_row(c)); choice.gain >= o.min_gain) {
-                    alpha = choice.alpha;
-                }
-            }
+            const float alpha = atlas_.usable[c] ? choose_alpha(chooser, atlas_.pdf_row(c)) : 1.0f;
             const float h[kHeader] = {f.s.x, f.s.y, f.s.z, f.t.x, f.t.y, f.t.z, f.n.x, f.n.y, f.n.z, alpha,
                                       o.learn ? 1.0f : 0.0f};
             std::copy(h, h + kHeader, reinterpret_cast<float*>(dst));
@@ -122,7 +115,6 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
         });
     }
     std::vector<uint32_t> claimants;
-    double sum_alpha = 0;
     for (size_t c = 0; c < n; ++c) {
         // Every cache that gathered photons claims the vertices near it, guiding or not: where the
         // nearest cache is not worth guiding with, the light there is what it measured, and a farther
@@ -130,16 +122,30 @@ Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas))
         // caches do not guide (no search for a distant one).
         if (atlas_.radius[c] > 0) claimants.push_back(uint32_t(c));
         summary_.usable += atlas_.usable[c] ? 1 : 0;
-        if (bsdf_fraction(int(c)) < 1) {
-            ++summary_.guiding;
-            sum_alpha += bsdf_fraction(int(c));
-        }
     }
     // The maps now live in table_.
     atlas_.pdf = {};
     atlas_.cdf = {};
-    summary_.mean_alpha = summary_.guiding == 0 ? 1.0 : sum_alpha / double(summary_.guiding);
+    summarise_guiding();
     if (summary_.guiding > 0 || o.learn) build_grid(claimants);
+}
+
+float Guide::choose_alpha(const BsdfFractionChooser& chooser, const float* pdf) const {
+    if (!(options_.bsdf_fraction < 0)) return options_.bsdf_fraction;
+    const BsdfFractionChoice choice = chooser.choose(pdf);
+    return choice.gain >= options_.min_gain ? choice.alpha : 1.0f;
+}
+
+void Guide::summarise_guiding() {
+    size_t guiding = 0;
+    double sum_alpha = 0;
+    for (size_t c = 0; c < atlas_.size(); ++c)
+        if (bsdf_fraction(int(c)) < 1) {
+            ++guiding;
+            sum_alpha += bsdf_fraction(int(c));
+        }
+    summary_.guiding = guiding;
+    summary_.mean_alpha = guiding == 0 ? 1.0 : sum_alpha / double(guiding);
 }
 
 void Guide::build_grid(const std::vector<uint32_t>& claimants) {
@@ -301,7 +307,6 @@ RefitSummary Guide::refit(const PathSamples& s) {
     const size_t n = atlas_.size(), N = atlas_.texels();
     if (s.caches() != n || s.texels() != N) throw std::logic_error("Guide::refit: path samples of another atlas");
     const int R = atlas_.resolution;
-    const bool adaptive = options_.bsdf_fraction < 0;
     const BsdfFractionChooser chooser(std::max(R, 1), std::min(atlas_.floor, 0.999), 0.2f);
     const double floor = atlas_.floor;
     // The fill-caches filter: filter_sigma texels, as an angle on the sphere.
@@ -316,15 +321,19 @@ RefitSummary Guide::refit(const PathSamples& s) {
             const uint32_t count = s.count(c);
             if (count < kMinPathSamples || count == path_used_[c]) continue;
             m.clear();
-            for (size_t k = 0; k < N; ++k) m[int(k)] = float(s.sum(c, k));
-            const double path_total = m.total();
+            double path_total = 0;  // (in double, as PathSamples::effective_count sums)
+            for (size_t k = 0; k < N; ++k) {
+                const double v = s.sum(c, k);
+                m[int(k)] = float(v);
+                path_total += v;
+            }
             if (!(path_total > 0)) continue;  // only zero-radiance samples so far: keep the photons' map
             if (filtered) m.filter(filter);
             // Mixed by what each histogram is worth: photons (of about equal power in a cache) as
             // photon_count, path samples as their effective count (PathSamples::effective_count); the
             // photon histogram is all zeros where unusable.
             const double photons = atlas_.usable[c] ? double(atlas_.photon_count[c]) : 0.0;
-            const double n_eff = s.effective_count(c);
+            const double n_eff = s.effective_count(c, path_total);
             const double lambda = n_eff / (n_eff + photons);
             const double total = m.total();
             const float* photon = &photon_pmf_[c * N];
@@ -337,14 +346,7 @@ RefitSummary Guide::refit(const PathSamples& s) {
             // A map worth fewer than kMinPathSamples samples in all does not guide (as fill-caches leaves
             // a cache with too few photons unusable): a histogram of a handful of heavy samples is a few
             // spikes, which the chooser would take for a sharply peaked distribution worth guiding with.
-            float alpha = 1.0f;
-            if (photons + n_eff < double(kMinPathSamples)) {
-                alpha = 1.0f;
-            } else if (!adaptive) {
-                alpha = options_.bsdf_fraction;
-            } else if (const BsdfFractionChoice choice = chooser.choose(pdf.data()); choice.gain >= options_.min_gain) {
-                alpha = choice.alpha;
-            }
+            const float alpha = photons + n_eff >= double(kMinPathSamples) ? choose_alpha(chooser, pdf.data()) : 1.0f;
             unsigned char* dst = table_.get() + c * stride_;
             reinterpret_cast<float*>(dst)[kAlpha] = alpha;
             reinterpret_cast<float*>(dst)[kRecord] = photons + n_eff >= kSaturatedSamples ? 0.0f : 1.0f;
@@ -354,17 +356,11 @@ RefitSummary Guide::refit(const PathSamples& s) {
             refit += 1;
         }
     });
+    summarise_guiding();
     RefitSummary r;
     r.refit = refit.load();
-    double sum_alpha = 0;
-    for (size_t c = 0; c < n; ++c)
-        if (bsdf_fraction(int(c)) < 1) {
-            ++r.guiding;
-            sum_alpha += bsdf_fraction(int(c));
-        }
+    r.guiding = summary_.guiding;
     for (size_t c = 0; c < n; ++c) r.saturated += records(int(c)) ? 0 : 1;
-    summary_.guiding = r.guiding;
-    summary_.mean_alpha = r.guiding == 0 ? 1.0 : sum_alpha / double(r.guiding);
     return r;
 }
 
@@ -388,6 +384,13 @@ CacheAtlas Guide::refined_atlas() const {
         }
     });
     return a;
+}
+
+std::string describe(const RefitSummary& r, int refits, double seconds) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%d refits from path samples (%.3f s), %zu caches refit, %zu guiding, %zu saturated",
+                  refits, seconds, r.refit, r.guiding, r.saturated);
+    return buf;
 }
 
 }  // namespace iris

@@ -26,6 +26,8 @@
 
 namespace iris {
 
+class BsdfFractionChooser;
+
 enum class GuideMode : uint8_t {
     NeeBsdf,       // the unguided path tracer (what render does without an atlas)
     NeeCache,      // NEE + the cache in place of the BSDF's diffuse lobe (BSDF where no cache serves)
@@ -140,11 +142,14 @@ public:
     // most of the total), and after a few passes one or two samples make the whole histogram; counted
     // as their number, they outweighed hundreds of photons (docs/benchmarks/hybrid.md).
     double effective_count(size_t cache) const {
-        const double m = max(cache);
-        if (!(m > 0)) return 0.0;
         double total = 0;
         for (size_t k = 0; k < texels_; ++k) total += sum(cache, k);
-        return std::min(double(count(cache)), total / m);
+        return effective_count(cache, total);
+    }
+    // The same where the caller has the cache's total (the sum of sum(cache, k) over its texels).
+    double effective_count(size_t cache, double total) const {
+        const double m = max(cache);
+        return m > 0 ? std::min(double(count(cache)), total / m) : 0.0;
     }
     size_t texels() const { return texels_; }
     size_t caches() const { return caches_; }
@@ -164,6 +169,8 @@ struct RefitSummary {
     size_t guiding = 0;  // caches that guide after it
     size_t saturated = 0;  // caches that no longer record path samples (Guide::records)
 };
+// "N refits from path samples (S s), ..." for the render's metadata and its report.
+std::string describe(const RefitSummary& r, int refits, double seconds);
 
 // What the guide decided at load time, for the render's report.
 struct GuideSummary {
@@ -351,6 +358,11 @@ private:
     void fill_grid(Grid& g, float cell, const std::vector<float>& reach, const std::vector<uint32_t>& claimants,
                    const PointTree& tree) const;
     void build_grid(const std::vector<uint32_t>& claimants);
+    // BSDF share of a cache allowed to guide whose map is pdf (N densities per sr): the constant
+    // --bsdf-fraction, else the chooser's, 1 (not guiding) where its predicted gain is below min_gain.
+    float choose_alpha(const BsdfFractionChooser& chooser, const float* pdf) const;
+    // summary_.guiding and mean_alpha from the caches' BSDF shares as they stand.
+    void summarise_guiding();
     // The first of n candidate caches (indices into claimants) that serves some point of the box
     // [lo, hi] for a surface of this normal (-1: none).
     int first_serving(const std::vector<uint32_t>& claimants, const uint32_t* idx, uint32_t n, Vec3 lo, Vec3 hi,

@@ -784,12 +784,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         else if (opt.auto_guide)  // (without a guide: the atlas had no cache that guides; no pilot ran)
             img.metadata["iris:auto_guide"] = "unguided: no cache in the atlas guides";
         if (ps.guide) img.metadata["iris:guiding"] = describe(ps);
-        if (path_samples) {
-            char buf[160];
-            std::snprintf(buf, sizeof buf, "%d refits from path samples (%.3f s), %zu caches refit, %zu guiding, %zu saturated",
-                          refits, refit_seconds, last_refit.refit, last_refit.guiding, last_refit.saturated);
-            img.metadata["iris:hybrid_caches"] = buf;
-        }
+        if (path_samples) img.metadata["iris:hybrid_caches"] = describe(last_refit, refits, refit_seconds);
         img.metadata["iris:light_paths"] = std::to_string(uint64_t(spp) * light_paths_per_sample);
         if (opt.caustics != RenderOptions::Caustics::Off)
             img.metadata["iris:caustics"] = light_paths_per_sample > 0 ? "light-traced, " + std::to_string(light_paths_per_sample) +

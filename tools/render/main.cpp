@@ -176,9 +176,8 @@ int main(int argc, char** argv) {
             iris::write_cache_atlas(write_atlas, guide->refined_atlas(), scene.fingerprint, prov);
         }
         if (!opt.quiet && stats.refits > 0)
-            std::fprintf(stderr, "render: hybrid caches: %d refits from path samples (%.2f s), %zu caches refit, %zu guiding, "
-                         "%zu saturated\n", stats.refits, stats.refit_seconds, stats.last_refit.refit,
-                         stats.last_refit.guiding, stats.last_refit.saturated);
+            std::fprintf(stderr, "render: hybrid caches: %s\n",
+                         iris::describe(stats.last_refit, stats.refits, stats.refit_seconds).c_str());
         if (!opt.quiet)
             std::fprintf(stderr, "render: wrote %s (%dx%d, %d spp, %.2f s, %.2f Mpaths/s, %.2f Mrays/s%s)\n",
                          output.c_str(), img.width, img.height, stats.spp, stats.seconds,
