@@ -51,6 +51,8 @@ struct GuideOptions {
     // refit makes it guide), so that paths also sample where the photons left a cache unusable or not
     // worth guiding with.
     bool learn = false;
+    // Product sampling where the lobe a cache replaces is glossy (Guide::product); off: the map alone.
+    bool product = true;
 };
 
 // Memory for tables that path vertices read or write at random (megabytes; every access would otherwise
@@ -265,6 +267,45 @@ public:
     void prefetch_texel(int c, Texel t) const {
         at_resolution([&](auto R) { packed_map::prefetch_row(map(c), R, t.j); });
     }
+    // Product sampling with a glossy lobe (issue 25, part 2; docs/benchmarks/product.md). A map holds
+    // L_i cos: for a diffuse lobe that already is the integrand, but where the lobe the cache replaces is
+    // glossy (a rough conductor, Ward without a diffuse part) the integrand is that times the lobe, which
+    // the map alone spreads over the whole hemisphere. The product technique weights the map by the lobe,
+    // taken as constant on each of kProductBlocks^2 square blocks of texels (a spherical Gaussian
+    // exp(sharpness (cos - 1)) about the lobe's axis, at the block's centre direction), so that it stays
+    // piecewise constant with an exact density:
+    //   p(w) = d_k e_K / Z,   Z = sum_K m_K e_K,
+    // d_k: the map's density in w's texel k, e_K: the weight of k's block K, m_K: the map's probability
+    // in K (kept per cache). Sampling picks a block by m_K e_K, a texel in it by d_k, a point in the
+    // texel uniformly. The weight needs only be non-negative for the estimate to stay unbiased; how well
+    // it follows the lobe decides the variance.
+    static constexpr int kProductBlocks = 8;  // blocks per side of the map (resolutions divisible by 8)
+    struct Product {
+        int cache = -1;
+        float inv_z = 0;      // 1 / Z
+        int block = 0;        // the block product_block picked
+        float u_block = 0;    // and its random number rescaled inside the block's interval
+        float e[kProductBlocks * kProductBlocks];  // lobe weight per block (0 where m_K = 0)
+    };
+    // The product of cache c's map with a lobe about the world direction `axis`; false where the map's
+    // resolution has no blocks or the product vanishes (then the plain map guides).
+    bool product(int c, Vec3 axis, float sharpness, Product* out) const;
+    float product_pdf(const Product& p, Texel t) const {
+        const int b = atlas_.resolution / kProductBlocks;
+        return texel_pdf(p.cache, t) * p.e[(t.j / b) * kProductBlocks + t.i / b] * p.inv_z;
+    }
+    // Sampling in two steps, so that the integrator can start loading the rows the sample reads before
+    // NEE's shadow ray and read them after: the block for ux (kept in *p; its rows start loading), then
+    // the direction, by the texel in the block for uy. *pdf receives its density; texel, where given,
+    // the index of the texel whose density that is (as texel_index()).
+    void product_block(Product* p, float ux) const;
+    // Starts loading what product(c, ...) reads of cache c (its block masses).
+    void prefetch_product(int c) const {
+        if (block_mass_.empty()) return;
+        const float* m = &block_mass_[size_t(c) * kProductBlocks * kProductBlocks];
+        for (int l = 0; l < kProductBlocks * kProductBlocks; l += 16) iris::prefetch(m + l);
+    }
+    Vec3 sample_product(const Product& p, float uy, float* pdf, int* texel = nullptr) const;
     // Probability of BSDF sampling at a vertex that cache c serves.
     float bsdf_fraction(int c) const { return header(c)[kAlpha]; }
     // The atlas's fields except its maps, which live in the guide's own table (below).
@@ -395,6 +436,12 @@ private:
         return f;
     }
     GuideSummary summary_;
+    // Product sampling: per cache, the map's probability in each block (kProductBlocks^2 values, empty
+    // where the resolution has no blocks), and the blocks' centre directions in a cache's own frame.
+    std::vector<float> block_mass_;
+    float block_x_[kProductBlocks * kProductBlocks], block_y_[kProductBlocks * kProductBlocks],
+        block_z_[kProductBlocks * kProductBlocks];
+    void fill_block_mass(size_t c);
     // With learning: per cache, the photon map as a pmf without its floor (N values summing to 1; all
     // zero for unusable caches), and the current map's pmf (floored) as the guide samples it.
     std::vector<float> photon_pmf_, current_pmf_;

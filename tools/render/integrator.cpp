@@ -43,6 +43,19 @@ inline bool guidable(const Bsdf& b) {
     }
 }
 
+// The sharpness of the spherical Gaussian about the mirror direction that stands for the lobe a cache
+// replaces where that lobe is glossy (Guide::product): the whole BSDF where it is one glossy lobe, a
+// rough conductor or a Ward without a diffuse part; 0 elsewhere (a diffuse lobe: the map, L_i cos, is
+// already its integrand). A microfacet lobe of roughness a is near exp(-theta_h^2 / a^2) in the
+// half-vector angle, and the mirror direction turns twice as fast: exp(-theta^2 / (4 a^2)) =
+// exp(k (cos theta - 1)) to second order for k = 1 / (2 a^2). Taken half as sharp: the lobe widens
+// towards grazing angles, and a weight too wide costs less than one too narrow.
+inline float glossy_sharpness(const Bsdf& b) {
+    if (b.type != BsdfType::RoughConductor && !(b.type == BsdfType::Ward && is_black(b.diffuse))) return 0.0f;
+    const float a2 = std::max(b.alpha_u * b.alpha_v, 1e-4f);
+    return 0.25f / a2;
+}
+
 }  // namespace
 
 RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSettings& ps, PathCounters& counters,
@@ -160,6 +173,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             ++counters.lookups;
             Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
             cache = guide->lookup(probe, n_side);
+            if (cache >= 0 && glossy_sharpness(bsdf) > 0) guide->prefetch_product(cache);
         }
         // NEE's BSDF value (the rest of NEE follows once the cache's rows are loading).
         Vec3 wo_light;
@@ -172,6 +186,13 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             alpha = ps.mode == GuideMode::NeeCache ? 0.0f : guide->bsdf_fraction(cache);
             g = bsdf_guidable_share(bsdf, wi);
         }
+        // Where the lobe the cache replaces is glossy, the cache technique samples the map's product
+        // with it (Guide::product); every density of the cache technique below is then the product's.
+        Guide::Product product;
+        const float sharpness = cache >= 0 ? glossy_sharpness(bsdf) : 0.0f;
+        const bool use_product =
+            sharpness > 0 && guide->product(cache, 2 * dot(wi_world, hit.frame.n) * hit.frame.n - wi_world, sharpness, &product);
+        auto cache_pdf = [&](Guide::Texel t) { return use_product ? guide->product_pdf(product, t) : guide->texel_pdf(cache, t); };
         const float k_cache = (1 - alpha) * g;  // probability of the cache technique (0 unguided)
         auto mix_from = [&](Vec3 wo, float p_bsdf, float p_cache) {
             // Where the whole BSDF is replaceable (g = 1) q is p_bsdf itself (bsdf.h's contract): no
@@ -201,7 +222,8 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 guide->prefetch_texel(cache, nee_texel);
             }
             if (use_cache) {
-                sample_row = guide->sample_row(cache, u);
+                if (use_product) guide->product_block(&product, u.x);
+                else sample_row = guide->sample_row(cache, u);
             } else {
                 // uc is remapped to stay uniform for the BSDF's own lobe choice: below 1 - g (the coat)
                 // as it is, the rest of [1 - g, 1 - k_cache) stretched onto [1 - g, 1).
@@ -237,7 +259,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 if (nee_density && !nee_density_early) nee_texel = guide->texel(cache, ls.wi);
                 if (!ls.delta) {
                     const float p_bsdf = bsdf_pdf(bsdf, wi, wo_light);
-                    const float p_mix = cache < 0 ? p_bsdf : mix_from(wo_light, p_bsdf, guide->texel_pdf(cache, nee_texel));
+                    const float p_mix = cache < 0 ? p_bsdf : mix_from(wo_light, p_bsdf, cache_pdf(nee_texel));
                     w = power_heuristic(ls.pdf, p_mix);
                 }
                 L += beta * f_light * ls.radiance * (w / ls.pdf);
@@ -269,7 +291,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                 prev_pdf = bs.pdf;
                 prev_delta = true;
             } else {
-                const float p = mix_from(wo, bs.pdf, guide->texel_pdf(cache, bsdf_texel));
+                const float p = mix_from(wo, bs.pdf, cache_pdf(bsdf_texel));
                 if (!(p > 0)) break;
                 // f = weight * pdf of the BSDF's own sample (bsdf.h): no second evaluation of the BSDF.
                 beta *= bs.weight * (bs.pdf / p);
@@ -280,7 +302,8 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         } else {
             float p_cache;
             int texel = 0;
-            wo_world = guide->sample(cache, u, sample_row, &p_cache, samples ? &texel : nullptr);
+            wo_world = use_product ? guide->sample_product(product, u.y, &p_cache, samples ? &texel : nullptr)
+                                   : guide->sample(cache, u, sample_row, &p_cache, samples ? &texel : nullptr);
             const Vec3 wo = hit.frame.to_local(wo_world);
             if (!(p_cache > 0) || !consistent_side(wo_world, hit.ng, wo.z)) break;
             const float p = mix_from(wo, bsdf_pdf(bsdf, wi, wo), p_cache);

@@ -54,6 +54,10 @@ int main(int argc, char** argv) {
                    "auto the pilot also weighs every vertex with less Russian roulette)");
     app.add_option("--min-gain", guide_options.min_gain,
                    "With --bsdf-fraction auto: least predicted variance reduction for a cache to be used (>= 1)");
+    std::string product = "on";
+    app.add_option("--product", product,
+                   "Where a cache guides a glossy lobe (rough conductor, Ward without a diffuse part): on (default) = "
+                   "sample the map's product with the lobe | off = the map alone");
     std::string caustics;
     app.add_option("--caustics", caustics,
                    "Light-trace caustics seen directly by the camera (light -> specular chain -> visible surface), "
@@ -110,6 +114,8 @@ int main(int argc, char** argv) {
         if (!write_atlas.empty() && !learn) throw std::runtime_error("--write-atlas needs --learn");
         if (!write_atlas.empty()) iris::check_output_path(write_atlas);
         guide_options.learn = learn;
+        if (product != "on" && product != "off") throw std::runtime_error("--product must be on or off, got '" + product + "'");
+        guide_options.product = product == "on";
         if (bsdf_fraction != "auto") {
             guide_options.bsdf_fraction = iris::parse_float_option("--bsdf-fraction", bsdf_fraction);
             if (!(guide_options.bsdf_fraction >= 0 && guide_options.bsdf_fraction < 1))
