@@ -245,7 +245,7 @@ TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) {
 }
 
 // The same on glossy metal tiles (a rough conductor, a Ward without a diffuse part), where the cache
-// technique samples the map's product with the glossy lobe (Guide::product): its density p = d_k e_K / Z
+// technique samples the map's product with the glossy lobe (render --product on, Guide::product): its density p = d_k e_K / Z
 // must be the one its samples come from, with MIS against NEE and the BSDF, and in nee+cache (no BSDF
 // technique) its support must cover the lobe's. Every vertex guided, so that the product also serves
 // the tiles' reflections of each other and of the walls. Checked to fail: a product density 10 % too
@@ -261,7 +261,7 @@ TEST(GuidingUnbiased, ProductWithGlossyLobesKeepsTheImage) {
     for (const char* mode : {"nee+cache", "nee+bsdf+cache"}) {
         SCOPED_TRACE(mode);
         const Layers guided = render(scene, dir, mode,
-                                     std::string("--mode ") + mode + " --guide-vertices 0 --spp 512 --seed " +
+                                     std::string("--mode ") + mode + " --product on --guide-vertices 0 --spp 512 --seed " +
                                          std::to_string(seed++) + " --atlas " + dir.file("atlas.h5"));
         ASSERT_EQ(guided.w, unguided.w);
         const Verdict v = compare(guided, unguided, 1.0, z_crit);

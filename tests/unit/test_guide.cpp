@@ -382,7 +382,10 @@ TEST(GuideProduct, IsAnExactDistributionAndSamplesFollowIt) {
         a.usable[c] = 1;
         SphereDistribution::build(lumpy_weights(R, 300 + c).data(), R, &a.cdf[c * size_t(N)], &a.pdf[c * size_t(N)]);
     }
-    const Guide guide(a, 0.25f);
+    GuideOptions options;
+    options.bsdf_fraction = 0.25f;
+    options.product = true;
+    const Guide guide(a, options);
     const double omega = 4.0 * M_PI / N;
     Rng rng(5, 9);
     int trials = 0;
