@@ -9,6 +9,7 @@
 #   make -f pipelines/bench.mk targets      # issue 25's equal-time targets, guided references (~55 min + references)
 #   make -f pipelines/bench.mk quick MODES=nee+bsdf,auto ONLY='ring bidir' REPORT=quick-some   # some scenes
 #   make -f pipelines/bench.mk hybrid       # hybrid vs photon-only caches on the door scene (~25 min)
+#   make -f pipelines/bench.mk product      # product sampling with glossy lobes vs the map alone (~25 min)
 #
 # References are unguided long renders (the path tracer alone, independent of the guiding code), kept
 # outside git in $(REF_DIR) with a manifest (scene, fingerprint, resolution, spp, seconds, command); make
@@ -84,11 +85,15 @@ PARAM_SCENE ?= cbox_kugeln
 PARAM_BUDGET ?= 24
 PARAM_STUDY ?= PATHS=62500,125000,250000,500000;COUNT=1000,4000,16000;K=250,500,1000,2000;RES=8,16,32;SIGMA=0,0.75,1.5
 
-.PHONY: plots quick full references runs report params targets hybrid FORCE
+.PHONY: plots quick full references runs report params targets hybrid product FORCE
 # Issue 25, part 1: hybrid caches (render --learn) against photon-only caches on the room lit through a
 # door, with scarce (25k paths) and default photons. Report docs/benchmarks/hybrid-door.md (~25 min).
 hybrid:
 	BIN=$(BIN) PYTHON=$(PYTHON) REF_DIR=$(REF_DIR) bash scripts/bench-hybrid-door.sh
+# Issue 25, part 2: product sampling with glossy lobes (render --product on) against the map alone on the
+# glossy spheres box. Report docs/benchmarks/product.md (~25 min).
+product:
+	BIN=$(BIN) PYTHON=$(PYTHON) REF_DIR=$(REF_DIR) bash scripts/bench-product.sh
 # Issue 25's equal-time targets at half size (the spec glass box is cbox_kugeln at 256 x 256): the four
 # caustic seed scenes against guided references of 420 s, the two scenes without caustics against unguided
 # references of 1024 spp; budgets 15/30/60 s (15/30 s without caustics), 3 repeats, the two modes the

@@ -52,7 +52,7 @@ struct GuideOptions {
     // worth guiding with.
     bool learn = false;
     // Product sampling where the lobe a cache replaces is glossy (Guide::product); off: the map alone.
-    bool product = false;
+    bool product = true;
 };
 
 // Memory for tables that path vertices read or write at random (megabytes; every access would otherwise

@@ -54,11 +54,10 @@ int main(int argc, char** argv) {
                    "auto the pilot also weighs every vertex with less Russian roulette)");
     app.add_option("--min-gain", guide_options.min_gain,
                    "With --bsdf-fraction auto: least predicted variance reduction for a cache to be used (>= 1)");
-    std::string product = "off";
+    std::string product = "on";
     app.add_option("--product", product,
-                   "Where a cache guides a glossy lobe (rough conductor, Ward without a diffuse part): on = sample "
-                   "the map's product with the lobe | off (default: on the glossy test scene it cost more time than "
-                   "it saved noise, docs/benchmarks/product.md) = the map alone");
+                   "Where a cache guides a glossy lobe (rough conductor, Ward without a diffuse part): on (default) = "
+                   "sample the map's product with the lobe | off = the map alone");
     std::string caustics;
     app.add_option("--caustics", caustics,
                    "Light-trace caustics seen directly by the camera (light -> specular chain -> visible surface), "
