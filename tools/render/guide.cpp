@@ -428,35 +428,34 @@ Vec3 Guide::sample_product(const Product& p, float uy, float* pdf, int* texel) c
     // then the texel within that row's run of cumulative counts; uy rescaled inside its interval.
     const unsigned char* m = map(p.cache);
     const uint16_t* ends = row_end(m);
-    auto run = [&](int j, uint32_t* before) {  // row j's counts in the block, those before it in *before
-        const uint16_t* te = texel_end(m, R, j);
-        *before = i0 > 0 ? te[i0 - 1] : 0u;
-        return uint32_t(te[i0 + b - 1]) - *before;
-    };
+    uint64_t weight[kMaxResolution / kProductBlocks];  // per row of the block: its count x its run's counts
+    uint32_t start[kMaxResolution / kProductBlocks];   // the row's cumulative count before the run
     uint64_t total = 0;
-    for (int j = j0; j < j0 + b; ++j) {
-        uint32_t lo, before;
-        total += uint64_t(interval(ends, j, &lo)) * run(j, &before);
+    for (int r = 0; r < b; ++r) {
+        const uint16_t* te = texel_end(m, R, j0 + r);
+        uint32_t lo;
+        start[r] = i0 > 0 ? te[i0 - 1] : 0u;
+        weight[r] = uint64_t(interval(ends, j0 + r, &lo)) * (uint32_t(te[i0 + b - 1]) - start[r]);
+        total += weight[r];
     }
+    // (Where rounding leaves v past the last row with weight, that row takes it, at its end.)
     double v = double(clamp_unit(uy)) * double(total);
-    int j = -1, last = j0;
-    for (int r = j0; r < j0 + b; ++r) {
-        uint32_t lo, before;
-        const uint64_t w = uint64_t(interval(ends, r, &lo)) * run(r, &before);
-        if (w == 0) continue;
-        last = r;
-        if (v < double(w)) {
-            j = r;
+    int r = -1, last = 0;
+    for (int q = 0; q < b; ++q) {
+        if (weight[q] == 0) continue;
+        last = q;
+        if (v < double(weight[q])) {
+            r = q;
             break;
         }
-        v -= double(w);
+        v -= double(weight[q]);
     }
-    uint32_t lo, before;
-    if (j < 0) j = last, v = double(interval(ends, j, &lo)) * run(j, &before) * double(kOneMinusEpsilon);
+    if (r < 0) r = last, v = double(weight[r]) * double(kOneMinusEpsilon);
+    const int j = j0 + r;
+    uint32_t lo;
     const uint32_t row = interval(ends, j, &lo);
-    const uint32_t in_block = run(j, &before);
-    // The count position in the row: before + v / row, in [before, before + in_block).
-    const double t = double(before) + std::min(v / double(row), double(in_block) * double(kOneMinusEpsilon));
+    // The count position in the row: start + v / row, in [start, start + the run's counts).
+    const double t = double(start[r]) + v / double(row);
     const uint16_t* te = texel_end(m, R, j);
     int i = i0;
     while (i < i0 + b - 1 && double(te[i]) <= t) ++i;

@@ -285,7 +285,7 @@ public:
         float inv_z = 0;      // 1 / Z
         int block = 0;        // the block product_block picked
         float u_block = 0;    // and its random number rescaled inside the block's interval
-        float e[kProductBlocks * kProductBlocks];  // lobe weight per block (0 where m_K = 0)
+        float e[kProductBlocks * kProductBlocks];  // lobe weight per block, in (0, 1]
     };
     // The product of cache c's map with a lobe about the world direction `axis`; false where the map's
     // resolution has no blocks or the product vanishes (then the plain map guides).
@@ -299,13 +299,13 @@ public:
     // the direction, by the texel in the block for uy. *pdf receives its density; texel, where given,
     // the index of the texel whose density that is (as texel_index()).
     void product_block(Product* p, float ux) const;
+    Vec3 sample_product(const Product& p, float uy, float* pdf, int* texel = nullptr) const;
     // Starts loading what product(c, ...) reads of cache c (its block masses).
     void prefetch_product(int c) const {
         if (block_mass_.empty()) return;
         const float* m = &block_mass_[size_t(c) * kProductBlocks * kProductBlocks];
         for (int l = 0; l < kProductBlocks * kProductBlocks; l += 16) iris::prefetch(m + l);
     }
-    Vec3 sample_product(const Product& p, float uy, float* pdf, int* texel = nullptr) const;
     // Probability of BSDF sampling at a vertex that cache c serves.
     float bsdf_fraction(int c) const { return header(c)[kAlpha]; }
     // The atlas's fields except its maps, which live in the guide's own table (below).

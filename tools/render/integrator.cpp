@@ -168,12 +168,14 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // i.e. the coat as the BSDF samples it, plus g (alpha p_lobes + (1 - alpha) p_cache).
         int cache = -1;
         float alpha = 1.0f, g = 0.0f;
+        float sharpness = 0.0f;  // > 0: the cache guides a glossy lobe, by its product with the map
         if (guided_here) {
             ++guided_vertices;
             ++counters.lookups;
             Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
             cache = guide->lookup(probe, n_side);
-            if (cache >= 0 && glossy_sharpness(bsdf) > 0) guide->prefetch_product(cache);
+            sharpness = cache >= 0 ? glossy_sharpness(bsdf) : 0.0f;
+            if (sharpness > 0) guide->prefetch_product(cache);
         }
         // NEE's BSDF value (the rest of NEE follows once the cache's rows are loading).
         Vec3 wo_light;
@@ -189,7 +191,6 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // Where the lobe the cache replaces is glossy, the cache technique samples the map's product
         // with it (Guide::product); every density of the cache technique below is then the product's.
         Guide::Product product;
-        const float sharpness = cache >= 0 ? glossy_sharpness(bsdf) : 0.0f;
         const bool use_product =
             sharpness > 0 && guide->product(cache, 2 * dot(wi_world, hit.frame.n) * hit.frame.n - wi_world, sharpness, &product);
         auto cache_pdf = [&](Guide::Texel t) { return use_product ? guide->product_pdf(product, t) : guide->texel_pdf(cache, t); };
