@@ -217,15 +217,11 @@ TEST(GuidingUnbiased, GuidedModesAgreeWithUnguidedPerPixel) {
     }
 }
 
-// The same comparison on a scene with layered BSDFs, a coat beside a diffuse lobe (smooth plastic:
-// a Dirac coat; rough plastic and Ward: glossy ones). At a guided vertex the cache replaces only the
-// diffuse lobe; the coat keeps the BSDF's own sampling probability, and the mixture density
-// p_bsdf + (1 - alpha)(g p_cache - q) must be the one the samples come from (DESIGN.md 4.3, 4.4).
-// 512 spp per render (the modes with NEE only: bsdf+cache needs far more samples, see above); the
-// tiles cover about a quarter of the image.
-TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) {
+// The modes with NEE (nee+cache, nee+bsdf+cache; bsdf+cache needs far more samples, see above) against
+// the unguided render per pixel on `scene_file`, 512 spp each, with `flags` added to the guided renders.
+void expect_nee_modes_agree(const std::string& scene_file, const std::string& flags) {
     TempDir dir;
-    const std::string scene = data_file("guiding/layered_tiles_box.xml");
+    const std::string scene = data_file(scene_file);
     ASSERT_TRUE(build_atlases(scene, dir));
     const Layers unguided = render(scene, dir, "unguided", "--spp 512 --seed 1");
     ASSERT_EQ(unguided.w, 32);
@@ -234,41 +230,31 @@ TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) {
     for (const char* mode : {"nee+cache", "nee+bsdf+cache"}) {
         SCOPED_TRACE(mode);
         const Layers guided = render(scene, dir, mode,
-                                     std::string("--mode ") + mode + " --spp 512 --seed " + std::to_string(seed++) +
-                                         " --atlas " + dir.file("atlas.h5"));
-        ASSERT_EQ(guided.w, unguided.w);
-        const Verdict v = compare(guided, unguided, 1.0, z_crit);
-        std::printf("%-15s largest |z|: pixel %.2f (%s), block %.2f, image %.2f\n", mode, v.worst_z[0],
-                    v.worst_where[0].c_str(), v.worst_z[1], v.worst_z[2]);
-        EXPECT_EQ(v.rejections, 0) << mode << " disagrees with the unguided render on the layered tiles box:\n" << v.log;
-    }
-}
-
-// The same on glossy metal tiles (a rough conductor, a Ward without a diffuse part), where the cache
-// technique samples the map's product with the glossy lobe (render --product on, Guide::product): its density p = d_k e_K / Z
-// must be the one its samples come from, with MIS against NEE and the BSDF, and in nee+cache (no BSDF
-// technique) its support must cover the lobe's. Every vertex guided, so that the product also serves
-// the tiles' reflections of each other and of the walls. Checked to fail: a product density 10 % too
-// large on the tiles' caches (Guide::product_pdf scaled) is rejected in both modes.
-TEST(GuidingUnbiased, ProductWithGlossyLobesKeepsTheImage) {
-    TempDir dir;
-    const std::string scene = data_file("guiding/glossy_tiles_box.xml");
-    ASSERT_TRUE(build_atlases(scene, dir));
-    const Layers unguided = render(scene, dir, "unguided", "--spp 512 --seed 1");
-    ASSERT_EQ(unguided.w, 32);
-    const double z_crit = normal_critical(kAlpha / test_count(unguided, 2));
-    int seed = 2;
-    for (const char* mode : {"nee+cache", "nee+bsdf+cache"}) {
-        SCOPED_TRACE(mode);
-        const Layers guided = render(scene, dir, mode,
-                                     std::string("--mode ") + mode + " --product on --guide-vertices 0 --spp 512 --seed " +
+                                     std::string("--mode ") + mode + " " + flags + " --spp 512 --seed " +
                                          std::to_string(seed++) + " --atlas " + dir.file("atlas.h5"));
         ASSERT_EQ(guided.w, unguided.w);
         const Verdict v = compare(guided, unguided, 1.0, z_crit);
         std::printf("%-15s largest |z|: pixel %.2f (%s), block %.2f, image %.2f\n", mode, v.worst_z[0],
                     v.worst_where[0].c_str(), v.worst_z[1], v.worst_z[2]);
-        EXPECT_EQ(v.rejections, 0) << mode << " disagrees with the unguided render on the glossy tiles box:\n" << v.log;
+        EXPECT_EQ(v.rejections, 0) << mode << " disagrees with the unguided render on " << scene_file << ":\n" << v.log;
     }
+}
+
+// The same comparison on a scene with layered BSDFs, a coat beside a diffuse lobe (smooth plastic:
+// a Dirac coat; rough plastic and Ward: glossy ones). At a guided vertex the cache replaces only the
+// diffuse lobe; the coat keeps the BSDF's own sampling probability, and the mixture density
+// p_bsdf + (1 - alpha)(g p_cache - q) must be the one the samples come from (DESIGN.md 4.3, 4.4).
+// The tiles cover about a quarter of the image.
+TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) { expect_nee_modes_agree("guiding/layered_tiles_box.xml", ""); }
+
+// The same on glossy metal tiles (a rough conductor, a Ward without a diffuse part), where the cache
+// technique samples the map's product with the glossy lobe (render --product on, Guide::product): its
+// density p = d_k e_K / Z must be the one its samples come from, with MIS against NEE and the BSDF, and
+// in nee+cache (no BSDF technique) its support must cover the lobe's. Every vertex guided, so that the
+// product also serves the tiles' reflections of each other and of the walls. Checked to fail: a product
+// density 10 % too large (Guide::product_pdf scaled) is rejected in both modes (block |z| 6.4-6.8).
+TEST(GuidingUnbiased, ProductWithGlossyLobesKeepsTheImage) {
+    expect_nee_modes_agree("guiding/glossy_tiles_box.xml", "--product on --guide-vertices 0");
 }
 
 // Light tracing of the caustics seen directly (render --caustics on, tools/render/caustics.h) splits path
