@@ -13,6 +13,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${BIN:-build/bin}
+source scripts/bench-lib.sh
+bin=$BIN
 PYTHON=${PYTHON:-/usr/bin/python3}
 OUT=${OUT:-out/bench/hybrid-door}
 REF_DIR=${REF_DIR:-.cache/references}
@@ -36,10 +38,6 @@ ref_hybrid=$REF_DIR/door-$RES-hybrid-300s.exr
 [[ -f $ref_unguided ]] || "$BIN/render" $SCENE -o "$ref_unguided" --resolution $RES --spp 2048 --seed 1000003 --variance -q
 [[ -f $ref_hybrid ]] || "$BIN/render" $SCENE -o "$ref_hybrid" --resolution $RES --time 300 --seed 2000003 --variance \
   -q $(guided 25000) --learn
-check=$("$BIN/compare-images" "$ref_hybrid" "$ref_unguided" --json)
-check_back=$("$BIN/compare-images" "$ref_unguided" "$ref_hybrid" --json)
-field() { $PYTHON -c "import json,sys; print('%.4g' % json.loads(sys.argv[1])[sys.argv[2]])" "$1" "$2"; }
-spp_of() { "$BIN/compare-images" "$1" --metadata | awk '$1 == "iris:spp" {print $2}'; }
 
 table() {  # budget repeats paths
   IRIS_BIN=$BIN $PYTHON scripts/bench-hybrid.py $SCENE --reference "$ref_hybrid" --resolution $RES --budget "$1" \
@@ -57,12 +55,8 @@ table() {  # budget repeats paths
   echo "fill-caches through pipelines/guided.mk with MIN_CAUSTIC=0: ${prep[0]} s with 25k photon paths, ${prep[1]} s"
   echo "with 250k). Efficiency = 1 / (relMSE x total seconds)."
   echo
-  share_hybrid=$(field "$check_back" relmse_reference_noise)
-  share_unguided=$(field "$check" relmse_reference_noise)
-  echo "**References.** Hybrid, 300 s, seed 2000003 ($(spp_of "$ref_hybrid") spp; its own share of a relMSE"
-  echo "$share_hybrid) against unguided, 2048 spp, seed 1000003 (share $share_unguided): relMSE between them"
-  echo "$(field "$check" relmse), expected from their noise alone $(awk "BEGIN {printf \"%.4g\", $share_hybrid + $share_unguided}")"
-  echo "(the sum of the two shares). The tables use the hybrid reference."
+  reference_paragraph "$ref_hybrid" "Hybrid, 300 s, seed 2000003" "$ref_unguided" "unguided, 2048 spp, seed 1000003" \
+    "The tables use the hybrid reference."
   echo
   echo "## 25k photon paths, 30 s total (3 repeats)"
   echo

@@ -12,6 +12,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${BIN:-build/bin}
+source scripts/bench-lib.sh
+bin=$BIN
 PYTHON=${PYTHON:-/usr/bin/python3}
 OUT=${OUT:-out/bench/product}
 REF_DIR=${REF_DIR:-.cache/references}
@@ -37,10 +39,6 @@ ref_guided=$REF_DIR/glossy_spheres-$RES-every-240s.exr
   --no-scene-warnings
 [[ -f $ref_guided ]] || "$BIN/render" $SCENE -o "$ref_guided" --resolution $RES --time 240 --seed 2000003 --variance -q \
   $every --product off --no-scene-warnings
-check=$("$BIN/compare-images" "$ref_guided" "$ref_unguided" --json)
-check_back=$("$BIN/compare-images" "$ref_unguided" "$ref_guided" --json)
-field() { $PYTHON -c "import json,sys; print('%.4g' % json.loads(sys.argv[1])[sys.argv[2]])" "$1" "$2"; }
-spp_of() { "$BIN/compare-images" "$1" --metadata | awk '$1 == "iris:spp" {print $2}'; }
 
 {
   echo "# Product sampling with glossy lobes (issue 25, part 2)"
@@ -54,12 +52,8 @@ spp_of() { "$BIN/compare-images" "$1" --metadata | awk '$1 == "iris:spp" {print 
   echo "include the preprocessing (pipelines/guided.mk defaults: $prep s). Efficiency = 1 / (relMSE x total"
   echo "seconds); relMSE x spp is the noise per sample, spp at equal time the cost."
   echo
-  share_guided=$(field "$check_back" relmse_reference_noise)
-  share_unguided=$(field "$check" relmse_reference_noise)
-  echo "**References.** Guided (every vertex, the map alone), 240 s, seed 2000003 ($(spp_of "$ref_guided") spp; its own"
-  echo "share of a relMSE $share_guided) against unguided, 2048 spp, seed 1000003 (share $share_unguided): relMSE"
-  echo "between them $(field "$check" relmse), expected from their noise alone"
-  echo "$(awk "BEGIN {printf \"%.4g\", $share_guided + $share_unguided}") (the sum of the two shares). The table uses the guided reference."
+  reference_paragraph "$ref_guided" "Guided (every vertex, the map alone), 240 s, seed 2000003" "$ref_unguided" \
+    "unguided, 2048 spp, seed 1000003" "The tables use the guided reference."
   echo
   echo "## 30 s total (3 repeats)"
   echo
