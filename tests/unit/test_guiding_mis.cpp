@@ -20,7 +20,9 @@
 // So each sum is one exactly when each technique's reported density equals the density the other side
 // evaluates for the same direction: same frame, same cache, same selection probabilities.
 // Vertices: random points on the surfaces of the caustic box, of the three-rooms scene (mesh, sphere
-// and point lights) and of the layered tiles box (plastic, rough plastic, Ward), found by tracing
+// and point lights), of the layered tiles box (plastic, rough plastic, Ward) and of the glossy tiles box
+// (rough conductor, Ward without a diffuse part: the cache technique is the map's product with the lobe,
+// Guide::product_block / sample_product and product_pdf), found by tracing
 // towards photon positions, with random incident directions.
 #include <gtest/gtest.h>
 
@@ -40,6 +42,7 @@
 #include "tools/fill-caches/cache_filler.h"
 #include "tools/place-caches/cache_placer.h"
 #include "tools/render/guide.h"
+#include "tools/render/integrator.h"
 #include "tools/trace-photons/photon_tracer.h"
 
 namespace iris {
@@ -95,6 +98,7 @@ bool hits_emitter(const Scene& scene, const Vertex& v, Vec3 d, SurfaceHit* lh) {
 
 struct Tally {
     long long layered_vertices = 0;  // guided vertices on a BSDF whose coat the cache leaves alone
+    long long product_vertices = 0;  // guided vertices on a glossy lobe: the cache technique is the product
     long long nee_paths = 0, hit_paths = 0, bad = 0;
     double worst = 0;
     void check(double sum, const char* what, GuideMode m) {
@@ -141,13 +145,22 @@ void check_scene(const GuidedScene& s, int vertices, int samples_per_vertex, Tal
             const int cache = mode == GuideMode::NeeBsdf ? -1 : lookup;
             const float alpha = cache < 0 ? 1.0f : mode == GuideMode::NeeCache ? 0.0f : guide.bsdf_fraction(cache);
             const float g = cache < 0 ? 0.0f : bsdf_guidable_share(bsdf, v.wi), keep = 1 - g;
+            // On a glossy lobe the cache technique samples the map's product with it (as the integrator).
+            const float sharpness = cache < 0 ? 0.0f : glossy_lobe_sharpness(bsdf);
+            Guide::Product product;
+            const bool use_product =
+                sharpness > 0 && guide.product(cache, mirror_direction(v.wi_world, v.hit.frame.n), sharpness, &product);
+            tally->product_vertices += use_product;
+            auto cache_pdf = [&](Vec3 d) {
+                return use_product ? guide.product_pdf(product, guide.texel(cache, d)) : guide.pdf(cache, d);
+            };
             auto mix = [&](Vec3 d, float pb, float pc) {
                 return std::max(0.0f, pb + (1 - alpha) * (g * pc - bsdf_guidable_pdf(bsdf, v.wi, v.hit.frame.to_local(d))));
             };
             // The density with which the continuation produces direction d, evaluated afresh.
             auto p_mix_eval = [&](Vec3 d) {
                 const float pb = bsdf_pdf(bsdf, v.wi, v.hit.frame.to_local(d));
-                return cache < 0 ? pb : mix(d, pb, guide.pdf(cache, d));
+                return cache < 0 ? pb : mix(d, pb, cache_pdf(d));
             };
             for (int si = 0; si < samples_per_vertex; ++si) {
                 // Technique 1: NEE.
@@ -179,10 +192,15 @@ void check_scene(const GuidedScene& s, int vertices, int samples_per_vertex, Tal
                     BsdfSample bs;
                     if (!bsdf_sample(bsdf, v.wi, u, uc_bsdf, &bs) || bs.delta) continue;
                     d = v.hit.frame.to_world(bs.wo);
-                    p_sampled = cache < 0 ? bs.pdf : mix(d, bs.pdf, guide.pdf(cache, d));
+                    p_sampled = cache < 0 ? bs.pdf : mix(d, bs.pdf, cache_pdf(d));
                 } else {
                     float p_cache = 0;
-                    d = guide.sample(cache, u, &p_cache);
+                    if (use_product) {
+                        guide.product_block(&product, u.x);
+                        d = guide.sample_product(product, u.y, &p_cache);
+                    } else {
+                        d = guide.sample(cache, u, &p_cache);
+                    }
                     p_sampled = mix(d, bsdf_pdf(bsdf, v.wi, v.hit.frame.to_local(d)), p_cache);
                 }
                 SurfaceHit lh;
@@ -227,6 +245,18 @@ TEST(GuidingMis, WeightsSumToOneOnLayeredBsdfs) {
     Tally t;
     check_scene(s, 3000, 48, &t);
     EXPECT_GT(t.layered_vertices, 150) << "too few guided vertices on the plastic, rough plastic and Ward tiles";
+    EXPECT_GT(t.nee_paths, 40000);
+    EXPECT_GT(t.hit_paths, 3000);
+    EXPECT_LE(t.bad, (t.nee_paths + t.hit_paths) / 10000) << "worst |sum - 1| = " << t.worst;
+}
+
+// Glossy metal tiles (a rough conductor, a Ward without a diffuse part): there the cache technique is
+// the map's product with the lobe (Guide::product), whose density every MIS weight must then use.
+TEST(GuidingMis, WeightsSumToOneWithTheProductOnGlossyLobes) {
+    GuidedScene s = make_setup("guiding/glossy_tiles_box.xml");
+    Tally t;
+    check_scene(s, 3000, 48, &t);
+    EXPECT_GT(t.product_vertices, 150) << "too few guided vertices on the glossy tiles";
     EXPECT_GT(t.nee_paths, 40000);
     EXPECT_GT(t.hit_paths, 3000);
     EXPECT_LE(t.bad, (t.nee_paths + t.hit_paths) / 10000) << "worst |sum - 1| = " << t.worst;

@@ -43,20 +43,13 @@ inline bool guidable(const Bsdf& b) {
     }
 }
 
-// The sharpness of the spherical Gaussian about the mirror direction that stands for the lobe a cache
-// replaces where that lobe is glossy (Guide::product): the whole BSDF where it is one glossy lobe, a
-// rough conductor or a Ward without a diffuse part; 0 elsewhere (a diffuse lobe: the map, L_i cos, is
-// already its integrand). A microfacet lobe of roughness a is near exp(-theta_h^2 / a^2) in the
-// half-vector angle, and the mirror direction turns twice as fast: exp(-theta^2 / (4 a^2)) =
-// exp(k (cos theta - 1)) to second order for k = 1 / (2 a^2). Taken half as sharp: the lobe widens
-// towards grazing angles, and a weight too wide costs less than one too narrow.
-inline float glossy_sharpness(const Bsdf& b) {
+}  // namespace
+
+float glossy_lobe_sharpness(const Bsdf& b) {
     if (b.type != BsdfType::RoughConductor && !(b.type == BsdfType::Ward && is_black(b.diffuse))) return 0.0f;
     const float a2 = std::max(b.alpha_u * b.alpha_v, 1e-4f);
     return 0.25f / a2;
 }
-
-}  // namespace
 
 RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSettings& ps, PathCounters& counters,
                RGB* caustic, PathSamples* samples) {
@@ -174,7 +167,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             ++counters.lookups;
             Vec3 n_side = dot(hit.ng, wi_world) >= 0 ? hit.ng : -hit.ng;
             cache = guide->lookup(probe, n_side);
-            sharpness = cache >= 0 ? glossy_sharpness(bsdf) : 0.0f;
+            sharpness = cache >= 0 ? glossy_lobe_sharpness(bsdf) : 0.0f;
             if (sharpness > 0) guide->prefetch_product(cache);
         }
         // NEE's BSDF value (the rest of NEE follows once the cache's rows are loading).
@@ -192,7 +185,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // with it (Guide::product); every density of the cache technique below is then the product's.
         Guide::Product product;
         const bool use_product =
-            sharpness > 0 && guide->product(cache, 2 * dot(wi_world, hit.frame.n) * hit.frame.n - wi_world, sharpness, &product);
+            sharpness > 0 && guide->product(cache, mirror_direction(wi_world, hit.frame.n), sharpness, &product);
         auto cache_pdf = [&](Guide::Texel t) { return use_product ? guide->product_pdf(product, t) : guide->texel_pdf(cache, t); };
         const float k_cache = (1 - alpha) * g;  // probability of the cache technique (0 unguided)
         auto mix_from = [&](Vec3 wo, float p_bsdf, float p_cache) {

@@ -179,6 +179,16 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
                              const std::vector<PathSettings>& candidates, double budget_seconds,
                              const CausticTracer* light = nullptr, double light_paths_per_pixel = 0);
 
+// The lobe the product technique stands in for (Guide::product) where a cache guides a vertex whose BSDF
+// is one glossy lobe (a rough conductor, a Ward without a diffuse part): a spherical Gaussian about the
+// mirror direction of wi about the shading normal, of this sharpness; 0 elsewhere (a diffuse lobe, whose
+// integrand the map already is). A microfacet lobe of roughness a is near exp(-theta_h^2 / a^2) in the
+// half-vector angle, and the mirror direction turns twice as fast: exp(-theta^2 / (4 a^2)) =
+// exp(k (cos theta - 1)) to second order for k = 1 / (2 a^2). Taken half as sharp: the lobe widens
+// towards grazing angles, and a weight too wide costs less than one too narrow (DESIGN.md 6.7).
+float glossy_lobe_sharpness(const Bsdf& b);
+inline Vec3 mirror_direction(Vec3 wi, Vec3 n) { return 2 * dot(wi, n) * n - wi; }
+
 class Rng;
 // Radiance along the camera ray (one sample of the path-space integral). Never returns NaN/Inf
 // unless the scene data are degenerate; callers still check. Where `caustic` is given it receives the
