@@ -219,25 +219,27 @@ void check_scene(const GuidedScene& s, int vertices, int samples_per_vertex, Tal
     EXPECT_GT(guided_vertices, vertices / 4) << "too few vertices with a cache";
 }
 
+// Enough paths of each kind that a mismatch in any mode would show (measured: 2.9e5 NEE-sampled and
+// 3300 continuation-sampled paths that reach the light in the caustic box; 1e5 and 5900 in the three
+// rooms), and at most one path in 10^4 within rounding of a texel edge (expected: ~1 in 10^6).
+void expect_sums_of_one(const Tally& t) {
+    EXPECT_GT(t.nee_paths, 40000);
+    EXPECT_GT(t.hit_paths, 3000);
+    EXPECT_LE(t.bad, (t.nee_paths + t.hit_paths) / 10000) << "worst |sum - 1| = " << t.worst;
+}
+
 TEST(GuidingMis, WeightsSumToOneInTheCausticBox) {
     GuidedScene s = make_setup("guiding/caustic_box.xml");
     Tally t;
     check_scene(s, 3000, 40, &t);
-    // Enough paths of each kind that a mismatch in any mode would show (measured: 2.9e5 NEE-sampled and
-    // 3300 continuation-sampled paths that reach the light; 1e5 and 5900 in the three rooms).
-    EXPECT_GT(t.nee_paths, 40000);
-    EXPECT_GT(t.hit_paths, 3000);
-    // At most one path in 10^4 may sit within rounding of a texel edge (expected: ~1 in 10^6).
-    EXPECT_LE(t.bad, (t.nee_paths + t.hit_paths) / 10000) << "worst |sum - 1| = " << t.worst;
+    expect_sums_of_one(t);
 }
 
 TEST(GuidingMis, WeightsSumToOneWithSphereAndPointLights) {
     GuidedScene s = make_setup("guiding/three_rooms.xml");
     Tally t;
     check_scene(s, 3000, 40, &t);
-    EXPECT_GT(t.nee_paths, 40000);
-    EXPECT_GT(t.hit_paths, 3000);
-    EXPECT_LE(t.bad, (t.nee_paths + t.hit_paths) / 10000) << "worst |sum - 1| = " << t.worst;
+    expect_sums_of_one(t);
 }
 
 TEST(GuidingMis, WeightsSumToOneOnLayeredBsdfs) {
@@ -245,9 +247,7 @@ TEST(GuidingMis, WeightsSumToOneOnLayeredBsdfs) {
     Tally t;
     check_scene(s, 3000, 48, &t);
     EXPECT_GT(t.layered_vertices, 150) << "too few guided vertices on the plastic, rough plastic and Ward tiles";
-    EXPECT_GT(t.nee_paths, 40000);
-    EXPECT_GT(t.hit_paths, 3000);
-    EXPECT_LE(t.bad, (t.nee_paths + t.hit_paths) / 10000) << "worst |sum - 1| = " << t.worst;
+    expect_sums_of_one(t);
 }
 
 // Glossy metal tiles (a rough conductor, a Ward without a diffuse part): there the cache technique is
@@ -257,9 +257,7 @@ TEST(GuidingMis, WeightsSumToOneWithTheProductOnGlossyLobes) {
     Tally t;
     check_scene(s, 3000, 48, &t);
     EXPECT_GT(t.product_vertices, 150) << "too few guided vertices on the glossy tiles";
-    EXPECT_GT(t.nee_paths, 40000);
-    EXPECT_GT(t.hit_paths, 3000);
-    EXPECT_LE(t.bad, (t.nee_paths + t.hit_paths) / 10000) << "worst |sum - 1| = " << t.worst;
+    expect_sums_of_one(t);
 }
 
 }  // namespace
