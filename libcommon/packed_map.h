@@ -137,12 +137,8 @@ inline Vec3 sample(const unsigned char* map, int R, Vec2 u, int j, float per_sr,
     // Positions inside the texel, uniform in [0, 1) and independent of the texel chosen.
     const float fy = std::min((tx - float(lo_j)) / float(row), kOneMinusEpsilon);
     const float fx = std::min((ty - float(lo_i)) / float(texel), kOneMinusEpsilon);
-    const float inv_r = 1.0f / float(R);
-    const Vec3 w = square_to_sphere({(float(i) + fx) * inv_r, (float(j) + fy) * inv_r});
-    const float m = SphereDistribution::kEdgeMargin * float(R);  // the margin in texel units
-    const bool near_edge = fx < m || fx > 1.0f - m || fy < m || fy > 1.0f - m;
-    int di = i, dj = j;  // the texel whose density applies
-    if (near_edge) sphere_texel_of(w, R, &di, &dj);
+    int di, dj;  // the texel whose density applies
+    const Vec3 w = sphere_point_in_texel(i, j, fx, fy, R, &di, &dj);
     *pdf = di == i && dj == j ? density(row, texel, per_sr) : texel_pdf(map, R, di, dj, per_sr);
     if (texel_index) *texel_index = dj * R + di;
     return w;

@@ -360,19 +360,32 @@ inline Vec3 SphereDistribution::sample(const float* cdf, const float* pdf, int R
     return w;
 }
 
+// The direction of the point ((i + fx) / R, (j + fy) / R) of the square, fx and fy in [0, 1) (a point
+// inside texel (i, j)), with in *di, *dj the texel whose density applies to it: (i, j), except within
+// SphereDistribution::kEdgeMargin of the texel's edge, where rounding may put the direction's preimage in
+// the neighbour texel and the texel is re-derived from the direction -- so that a sample reports exactly
+// the density a lookup of its direction reads. Every sampler of a map (SphereDistribution, the packed
+// map, the guide's product) places its point with this.
+inline Vec3 sphere_point_in_texel(int i, int j, float fx, float fy, int R, int* di, int* dj) {
+    const float inv_r = 1.0f / float(R);
+    const Vec3 w = square_to_sphere({(float(i) + fx) * inv_r, (float(j) + fy) * inv_r});
+    const float m = SphereDistribution::kEdgeMargin * float(R);  // the margin in texel units
+    *di = i;
+    *dj = j;
+    if (fx < m || fx > 1.0f - m || fy < m || fy > 1.0f - m) sphere_texel_of(w, R, di, dj);
+    return w;
+}
+
 inline Vec3 SphereDistribution::sample_texel(const float* cdf, int R, int k, float ux, float uy, int* density_texel) {
     constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
     const float lo = k > 0 ? cdf[k - 1] : 0.0f;
     // ux rescaled to [0, 1) inside the texel's interval: uniform and independent of k.
     const float fx = clamp((ux - lo) / (cdf[k] - lo), 0.0f, kOneMinusEpsilon);
-    const int i = k % R, j = k / R;
-    const float inv_r = 1.0f / float(R);
-    const Vec3 w = square_to_sphere({(float(i) + fx) * inv_r, (float(j) + uy) * inv_r});
-    // Equal-area map: the density is constant inside texel k. Within kEdgeMargin of the texel's edges,
-    // rounding may put w's preimage in the neighbour texel; use exactly the texel pdf(w) uses.
-    const float m = kEdgeMargin * float(R);  // the margin in texel units
-    const bool near_edge = fx < m || fx > 1.0f - m || uy < m || uy > 1.0f - m;
-    *density_texel = near_edge ? sphere_texel_of(w, R) : k;
+    // Equal-area map: the density is constant inside texel k (or the neighbour a point at its edge
+    // rounds into, which pdf(w) reads).
+    int di, dj;
+    const Vec3 w = sphere_point_in_texel(k % R, k / R, fx, uy, R, &di, &dj);
+    *density_texel = dj * R + di;
     return w;
 }
 

@@ -313,18 +313,31 @@ int Guide::first_serving(const std::vector<uint32_t>& claimants, const uint32_t*
     return -1;
 }
 
+namespace {
+// Row j's probability over the run of b texels from column i0 of a packed map, in units of
+// 1 / kRowTotal^2 (the row's count times the run's texel counts, packed_map.h: exact integers), and in
+// *start the row's cumulative texel count before the run. A block's mass and the choice of a row inside
+// it both read this.
+uint64_t run_weight(const unsigned char* map, int R, int j, int i0, int b, uint32_t* start) {
+    const uint16_t* te = packed_map::texel_end(map, R, j);
+    uint32_t lo;
+    *start = i0 > 0 ? te[i0 - 1] : 0u;
+    return uint64_t(packed_map::interval(packed_map::row_end(map), j, &lo)) * (uint32_t(te[i0 + b - 1]) - *start);
+}
+}  // namespace
+
 void Guide::fill_block_mass(size_t c) {
     if (block_mass_.empty()) return;
     constexpr int B = kProductBlocks;
+    constexpr double kInvTotal2 = 1.0 / (double(packed_map::kRowTotal) * double(packed_map::kRowTotal));
     const int R = atlas_.resolution, b = R / B;
-    const double omega = 4.0 * M_PI / double(R * R);
-    // From the packed map's own densities, so that the product's Z matches what it samples.
+    // From the packed map's own counts, so that the product's Z matches what it samples.
     for (int bj = 0; bj < B; ++bj)
         for (int bi = 0; bi < B; ++bi) {
-            double m = 0;
-            for (int j = bj * b; j < (bj + 1) * b; ++j)
-                for (int i = bi * b; i < (bi + 1) * b; ++i) m += double(texel_pdf(int(c), Texel{i, j}));
-            block_mass_[c * B * B + size_t(bj * B + bi)] = float(m * omega);
+            uint64_t m = 0;
+            uint32_t start;
+            for (int j = bj * b; j < (bj + 1) * b; ++j) m += run_weight(map(int(c)), R, j, bi * b, b, &start);
+            block_mass_[c * B * B + size_t(bj * B + bi)] = float(double(m) * kInvTotal2);
         }
 }
 
@@ -427,17 +440,10 @@ Vec3 Guide::sample_product(const Product& p, float uy, float* pdf, int* texel) c
     // its own, packed_map.h): a row of the block by its count times its texels' counts in the block,
     // then the texel within that row's run of cumulative counts; uy rescaled inside its interval.
     const unsigned char* m = map(p.cache);
-    const uint16_t* ends = row_end(m);
-    uint64_t weight[kMaxResolution / kProductBlocks];  // per row of the block: its count x its run's counts
+    uint64_t weight[kMaxResolution / kProductBlocks];  // per row of the block (run_weight)
     uint32_t start[kMaxResolution / kProductBlocks];   // the row's cumulative count before the run
     uint64_t total = 0;
-    for (int r = 0; r < b; ++r) {
-        const uint16_t* te = texel_end(m, R, j0 + r);
-        uint32_t lo;
-        start[r] = i0 > 0 ? te[i0 - 1] : 0u;
-        weight[r] = uint64_t(interval(ends, j0 + r, &lo)) * (uint32_t(te[i0 + b - 1]) - start[r]);
-        total += weight[r];
-    }
+    for (int r = 0; r < b; ++r) total += weight[r] = run_weight(m, R, j0 + r, i0, b, &start[r]);
     // (Where rounding leaves v past the last row with weight, that row takes it, at its end.)
     double v = double(clamp_unit(uy)) * double(total);
     int r = -1, last = 0;
@@ -453,7 +459,7 @@ Vec3 Guide::sample_product(const Product& p, float uy, float* pdf, int* texel) c
     if (r < 0) r = last, v = double(weight[r]) * double(kOneMinusEpsilon);
     const int j = j0 + r;
     uint32_t lo;
-    const uint32_t row = interval(ends, j, &lo);
+    const uint32_t row = interval(row_end(m), j, &lo);
     // The count position in the row: start + v / row, in [start, start + the run's counts).
     const double t = double(start[r]) + v / double(row);
     const uint16_t* te = texel_end(m, R, j);
@@ -461,14 +467,8 @@ Vec3 Guide::sample_product(const Product& p, float uy, float* pdf, int* texel) c
     while (i < i0 + b - 1 && double(te[i]) <= t) ++i;
     const uint32_t t_lo = i > 0 ? te[i - 1] : 0u, count = uint32_t(te[i]) - t_lo;
     const float fx = count > 0 ? std::min(float((t - double(t_lo)) / double(count)), kOneMinusEpsilon) : 0.5f;
-    const float fy = p.u_block;
-    const float inv_r = 1.0f / float(R);
-    const Vec3 local = square_to_sphere({(float(i) + fx) * inv_r, (float(j) + fy) * inv_r});
-    // As packed_map::sample: a point within kEdgeMargin of its texel's edge takes the density of the
-    // texel its direction falls in.
-    const float margin = SphereDistribution::kEdgeMargin * float(R);
-    Texel dt{i, j};
-    if (fx < margin || fx > 1.0f - margin || fy < margin || fy > 1.0f - margin) sphere_texel_of(local, R, &dt.i, &dt.j);
+    Texel dt;  // the texel whose density applies
+    const Vec3 local = sphere_point_in_texel(i, j, fx, p.u_block, R, &dt.i, &dt.j);
     *pdf = product_pdf(p, dt);
     if (texel) *texel = texel_index(dt);
     return frame(p.cache).to_world(local);
