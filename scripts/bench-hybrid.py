@@ -75,7 +75,7 @@ def main():
                 c = json.loads(js)
                 total = wall + prep
                 # The reference's own noise (from its variance layers, where it has them) taken out.
-                net = max(c["relmse"] - c.get("relmse_reference_noise", 0.0), 1e-12)
+                net = max(c["relmse"] - (c.get("relmse_reference_noise") or 0.0), 1e-12)  # (null without layers)
                 rows[name].append(dict(relmse=c["relmse"], total=total, spp=int(m["iris:spp"]),
                                        cost=c["relmse"] * total, net_cost=net * total,
                                        hybrid=m.get("iris:hybrid_caches", "")))

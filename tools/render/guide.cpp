@@ -324,24 +324,7 @@ uint64_t run_weight(const unsigned char* map, int R, int j, int i0, int b, uint3
     *start = i0 > 0 ? te[i0 - 1] : 0u;
     return uint64_t(packed_map::interval(packed_map::row_end(map), j, &lo)) * (uint32_t(te[i0 + b - 1]) - *start);
 }
-}  // namespace
 
-void Guide::fill_block_mass(size_t c) {
-    if (block_mass_.empty()) return;
-    constexpr int B = kProductBlocks;
-    constexpr double kInvTotal2 = 1.0 / (double(packed_map::kRowTotal) * double(packed_map::kRowTotal));
-    const int R = atlas_.resolution, b = R / B;
-    // From the packed map's own counts, so that the product's Z matches what it samples.
-    for (int bj = 0; bj < B; ++bj)
-        for (int bi = 0; bi < B; ++bi) {
-            uint64_t m = 0;
-            uint32_t start;
-            for (int j = bj * b; j < (bj + 1) * b; ++j) m += run_weight(map(int(c)), R, j, bi * b, b, &start);
-            block_mass_[c * B * B + size_t(bj * B + bi)] = float(double(m) * kInvTotal2);
-        }
-}
-
-namespace {
 // The product's lobe weight exp(k (cos - 1)) for 4 blocks at once, k >= 0: a positive stand-in for the
 // exponential, 2^(x log2 e) from the exponent bits and a cubic for the fraction (within 0.1 % of exp).
 // The weight needs only be positive and the same wherever it is read (the density divides by the same
@@ -373,6 +356,21 @@ inline float lobe_weight(float cos, float k) {
 }
 #endif
 }  // namespace
+
+void Guide::fill_block_mass(size_t c) {
+    if (block_mass_.empty()) return;
+    constexpr int B = kProductBlocks;
+    constexpr double kInvTotal2 = 1.0 / (double(packed_map::kRowTotal) * double(packed_map::kRowTotal));
+    const int R = atlas_.resolution, b = R / B;
+    // From the packed map's own counts, so that the product's Z matches what it samples.
+    for (int bj = 0; bj < B; ++bj)
+        for (int bi = 0; bi < B; ++bi) {
+            uint64_t m = 0;
+            uint32_t start;
+            for (int j = bj * b; j < (bj + 1) * b; ++j) m += run_weight(map(int(c)), R, j, bi * b, b, &start);
+            block_mass_[c * B * B + size_t(bj * B + bi)] = float(double(m) * kInvTotal2);
+        }
+}
 
 bool Guide::product(int c, Vec3 axis, float sharpness, Product* out) const {
     if (block_mass_.empty()) return false;
