@@ -74,7 +74,8 @@ void CausticTracer::splat(const SurfaceHit& hit, const Bsdf& bsdf, Vec3 w_light,
         }
 }
 
-bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSplat>& out, PathCounters& counters) const {
+bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSplat>* out, PathCounters& counters,
+                          std::vector<LightVertex>* pool) const {
     Rng rng = Rng::for_index(seed, Stream::LightPaths, index);
     const float u_sel = rng.next_float();
     const Vec2 u_pos{rng.next_float(), rng.next_float()}, u_dir{rng.next_float(), rng.next_float()};
@@ -85,6 +86,8 @@ bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSpla
     const LightType type = scene_.lights[e.light].type;
     const bool env = type == LightType::Constant || type == LightType::Envmap;
     if (!env && e.n.x == 0 && e.n.y == 0 && e.n.z == 0) return true;
+    // Connections join only chains from area lights (connections.h).
+    const float emit_density = pool && !env ? light_emit_density(scene_, e.light) : 0.0f;
     RGB beta = e.flux;
     Ray ray;
     ray.o = env ? e.p : offset_ray_origin(e.p, e.n, e.d, scene_.scale());
@@ -100,7 +103,13 @@ bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSpla
         const Vec3 w_light = -ray.d;
         const Vec3 wi = hit.frame.to_local(w_light);
         if (wi.z == 0) break;
-        if (depth >= 2 && !bsdf_is_delta(bsdf)) splat(hit, bsdf, w_light, beta, out, counters, &bad);
+        if (depth >= 2 && !bsdf_is_delta(bsdf)) {
+            if (out) splat(hit, bsdf, w_light, beta, *out, counters, &bad);
+            // A pool vertex where the camera path's continuation could leave y along w_light (its
+            // consistent_side) and the path tracer would have a density for it.
+            if (emit_density > 0 && dot(w_light, hit.ng) * wi.z > 0 && is_finite(beta))
+                pool->push_back({hit, w_light, beta, emit_density, depth, -1});
+        }
         // Only a Dirac event continues the chain: any other makes x1 a later vertex of a path that is not
         // in class C (the path tracer's).
         if (!bsdf_has_delta_lobe(bsdf)) break;
@@ -114,10 +123,14 @@ bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSpla
 }
 
 uint64_t trace_light_paths(const CausticTracer& tracer, uint64_t seed, uint64_t first, uint64_t count,
-                           const std::function<void(const CausticSplat&)>& sink, std::atomic<uint64_t>& rays) {
+                           const std::function<void(const CausticSplat&)>& sink, std::atomic<uint64_t>& rays,
+                           const std::function<void(uint64_t, const LightVertex&)>& pool) {
     constexpr uint64_t kChunk = 4096, kChunksPerBatch = 64;  // bounded memory for any number of paths
     const uint64_t chunks = (count + kChunk - 1) / kChunk;
     std::vector<std::vector<CausticSplat>> parts(std::min(chunks, kChunksPerBatch));
+    // Pool vertices per chunk, each with the index of its path.
+    std::vector<std::vector<LightVertex>> vertices(pool ? parts.size() : 0);
+    std::vector<std::vector<uint64_t>> owners(vertices.size());
     uint64_t bad_total = 0;
     for (uint64_t b0 = 0; b0 < chunks; b0 += kChunksPerBatch) {
         const uint64_t b1 = std::min(chunks, b0 + kChunksPerBatch);
@@ -126,14 +139,22 @@ uint64_t trace_light_paths(const CausticTracer& tracer, uint64_t seed, uint64_t 
             PathCounters counters;
             std::vector<CausticSplat>& out = parts[c - b0];
             out.clear();
+            std::vector<LightVertex>* verts = pool ? &vertices[c - b0] : nullptr;
+            if (verts) verts->clear(), owners[c - b0].clear();
             uint64_t nb = 0;
-            for (uint64_t i = c * kChunk; i < std::min(count, (c + 1) * kChunk); ++i)
-                nb += tracer.trace(seed, first + i, out, counters) ? 0 : 1;
+            for (uint64_t i = c * kChunk; i < std::min(count, (c + 1) * kChunk); ++i) {
+                nb += tracer.trace(seed, first + i, sink ? &out : nullptr, counters, verts) ? 0 : 1;
+                if (verts) owners[c - b0].resize(verts->size(), first + i);
+            }
             rays += counters.rays;
             bad += nb;
         });
-        for (uint64_t c = b0; c < b1; ++c)
-            for (const CausticSplat& s : parts[c - b0]) sink(s);
+        for (uint64_t c = b0; c < b1; ++c) {
+            if (sink)
+                for (const CausticSplat& s : parts[c - b0]) sink(s);
+            if (pool)
+                for (size_t v = 0; v < vertices[c - b0].size(); ++v) pool(owners[c - b0][v], vertices[c - b0][v]);
+        }
         bad_total += bad;
     }
     return bad_total;

@@ -31,6 +31,7 @@
 #include "libcommon/camera.h"
 #include "libcommon/film.h"
 #include "libcommon/scene.h"
+#include "tools/render/connections.h"
 #include "tools/render/integrator.h"
 
 namespace iris {
@@ -46,9 +47,11 @@ public:
                   int max_depth, int rr_depth);
     // Whether class C can hold any path: an area light and a surface with a Dirac lobe.
     static bool possible(const Scene& scene);
-    // Traces light path `index` of the render seeded `seed` and appends its splats. Returns false if a
-    // contribution was NaN or Inf (it is dropped; the caller counts it).
-    bool trace(uint64_t seed, uint64_t index, std::vector<CausticSplat>& out, PathCounters& counters) const;
+    // Traces light path `index` of the render seeded `seed` and appends its splats to `out` (if given)
+    // and its vertices after a specular chain from an area light to `pool` (if given; connections.h).
+    // Returns false if a contribution was NaN or Inf (it is dropped; the caller counts it).
+    bool trace(uint64_t seed, uint64_t index, std::vector<CausticSplat>* out, PathCounters& counters,
+               std::vector<LightVertex>* pool = nullptr) const;
 
 private:
     // bsdf: the hit's BSDF as scene_bsdf_at resolved it (textures evaluated at the hit).
@@ -62,10 +65,12 @@ private:
     float pixels_per_plane_area_;  // (W / 2 tan_x)(H / 2 tan_y): film pixels per unit area at distance 1
 };
 
-// Traces light paths [first, first + count) and hands their splats to `sink` in path order, whatever
-// the thread count (so that sums are reproducible). Returns the paths whose contribution was NaN/Inf
-// (dropped).
+// Traces light paths [first, first + count) and hands their splats to `sink` (if set) and, where `pool`
+// is set, their vertices after specular chains (with the index of the path) to `pool`, in path order,
+// whatever the thread count (so that sums are reproducible). Returns the paths whose contribution was
+// NaN/Inf (dropped).
 uint64_t trace_light_paths(const CausticTracer& tracer, uint64_t seed, uint64_t first, uint64_t count,
-                           const std::function<void(const CausticSplat&)>& sink, std::atomic<uint64_t>& rays);
+                           const std::function<void(const CausticSplat&)>& sink, std::atomic<uint64_t>& rays,
+                           const std::function<void(uint64_t, const LightVertex&)>& pool = nullptr);
 
 }  // namespace iris

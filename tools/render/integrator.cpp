@@ -17,6 +17,7 @@
 #include "libcommon/rng.h"
 #include "libcommon/sampling.h"
 #include "tools/render/caustics.h"
+#include "tools/render/connections.h"
 #include "tools/render/film_parts.h"
 
 namespace iris {
@@ -51,8 +52,31 @@ float glossy_lobe_sharpness(const Bsdf& b) {
     return 0.25f / a2;
 }
 
+namespace {
+
+// The density (per steradian) with which trace_path continues from a vertex that cache `cache` guides
+// (with BSDF b, local wi towards where the path came from, and shading normal ns) in direction wo
+// (local; world wo_world): the mixture trace_path samples, written out once more for the vertices it
+// does not visit itself (a connection's light vertex).
+float guided_density(const Guide& guide, int cache, GuideMode mode, const Bsdf& b, Vec3 wi, Vec3 wo, Vec3 wi_world,
+                     Vec3 wo_world, Vec3 ns) {
+    const float alpha = mode == GuideMode::NeeCache ? 0.0f : guide.bsdf_fraction(cache);
+    const float g = bsdf_guidable_share(b, wi);
+    const float p_bsdf = bsdf_pdf(b, wi, wo);
+    const float sharpness = glossy_lobe_sharpness(b);
+    Guide::Product product;
+    const Guide::Texel t = guide.texel(cache, wo_world);
+    const float p_cache = sharpness > 0 && guide.product(cache, mirror_direction(wi_world, ns), sharpness, &product)
+                              ? guide.product_pdf(product, t)
+                              : guide.texel_pdf(cache, t);
+    const float q = g < 1 ? bsdf_guidable_pdf(b, wi, wo) : p_bsdf;
+    return std::max(0.0f, p_bsdf + (1 - alpha) * (g * p_cache - q));
+}
+
+}  // namespace
+
 RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSettings& ps, PathCounters& counters,
-               RGB* caustic, PathSamples* samples) {
+               RGB* caustic, PathSamples* samples, const ConnectionPool* pool) {
     const Guide* guide = ps.guide;
     const bool use_nee = ps.mode != GuideMode::BsdfCache;
     RGB L(0.0f), beta(1.0f);
@@ -65,6 +89,14 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
     Bsdf bsdf_at_hit;          // textured BSDFs evaluated at the current vertex (scene_bsdf_at)
     int guided_vertices = 0;   // vertices at which a cache was looked up so far
     bool caustic_chain = false;  // so far: a non-Dirac event at the first vertex, Dirac ones after it
+    // Caustic connections: the path's last non-Dirac vertex y, where the connection strategy could also
+    // have made the path so far (y reached from a non-Dirac vertex x, left on the side x is on), and the
+    // quantities of connections.h's density ratio.
+    struct {
+        bool joinable = false;
+        float p_x = 0, p_y = 0, cos_x = 0, cos_chain = 0, dist2 = 0;
+    } last_y;
+    Vec3 prev_hit_p = ray.o;  // the previous vertex (the camera's position for the first)
     // Hybrid caches: the vertices a cache served, each with what it needs to turn the radiance the path
     // gathers after it into the radiance its continuation received: L before the continuation's
     // contributions, the throughput after the vertex (luminance), and cos(theta_c) / p of the
@@ -104,6 +136,9 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             float w = 1.0f;
             if (!prev_delta && use_nee)
                 w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(light_index), prev_p, p, n, ray.d));
+            else if (prev_delta && ps.connect && last_y.joinable)
+                w = connection_path_weight(ps.paths_per_vertex, light_emit_density(scene, uint32_t(light_index)),
+                                           last_y.cos_chain, last_y.cos_x, last_y.dist2, last_y.p_x, last_y.p_y);
             L += beta * le * w;
         }
     };
@@ -124,6 +159,13 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // meanwhile).
         Guide::Probe probe;
         if (guided_here) probe = guide->probe(hit.p);
+        // The light vertex a connection joins (below), chosen now so that it loads meanwhile (the pool is
+        // larger than the CPU's caches).
+        const LightVertex* join = nullptr;
+        if (pool && pool->count > 0 && !delta_only) {
+            join = pool->vertices + std::min(pool->count - 1, uint32_t(rng.next_float() * float(pool->count)));
+            for (size_t b = 0; b < sizeof(LightVertex); b += 64) __builtin_prefetch(reinterpret_cast<const char*>(join) + b);
+        }
         if (hit.light >= 0) {
             const RGB le = light_emitted(scene.lights[hit.light], hit.ng, wi_world);
             if (!is_black(le)) add_emission(le, depth, hit.light, hit.p, hit.ng);
@@ -260,7 +302,48 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             }
         }
 
+        // Caustic connection (connections.h): join the light vertex y chosen above, where the whole path
+        // fits in the depth limit. Added before the continuation, so that hybrid caches do not count it as
+        // light the continuation received.
+        if (join) {
+            const LightVertex& v = *join;
+            const Vec3 d = v.hit.p - hit.p;
+            const float dist2 = dot(d, d);
+            const Vec3 w = d / std::sqrt(dist2);
+            const Vec3 wo_x = hit.frame.to_local(w);
+            const float cos_y_x = -dot(w, v.hit.ng), cos_y_chain = dot(v.w_light, v.hit.ng);
+            if ((ps.max_depth < 0 || depth + 1 + v.depth <= ps.max_depth) && dist2 > 0 &&
+                consistent_side(w, hit.ng, wo_x.z) && cos_y_x * cos_y_chain > 0) {
+                const RGB f_x = bsdf_eval(bsdf, wi, wo_x);
+                Bsdf bsdf_y_at;
+                const Bsdf& bsdf_y = scene_bsdf_at(scene, v.hit, &bsdf_y_at);
+                const Vec3 wi_y = v.hit.frame.to_local(-w), wo_y = v.hit.frame.to_local(v.w_light);
+                const RGB f_y = wi_y.z != 0 ? bsdf_eval(bsdf_y, wi_y, wo_y) : RGB(0.0f);
+                if (!is_black(f_x) && !is_black(f_y)) {
+                    ++counters.rays;
+                    if (!scene.occluded(offset_ray_origin(hit.p, hit.ng, w, hit.magnitude),
+                                        offset_ray_origin(v.hit.p, v.hit.ng, -w, v.hit.magnitude))) {
+                        // The path tracer's densities of x -> y and of y -> the chain.
+                        const float pb_x = bsdf_pdf(bsdf, wi, wo_x);
+                        const float p_x = cache < 0 ? pb_x : mix_from(wo_x, pb_x, cache_pdf(guide->texel(cache, w)));
+                        const bool y_guided =
+                            guide && v.cache >= 0 && guided_vertices < ps.guide_vertices && guidable(bsdf_y);
+                        const float p_y = y_guided ? guided_density(*guide, v.cache, ps.mode, bsdf_y, wi_y, wo_y, -w,
+                                                                    v.w_light, v.hit.frame.n)
+                                                   : bsdf_pdf(bsdf_y, wi_y, wo_y);
+                        const float w_connect =
+                            1 - connection_path_weight(ps.paths_per_vertex, v.emit_density, std::abs(cos_y_chain),
+                                                       std::abs(cos_y_x), dist2, p_x, p_y);
+                        L += beta * f_x * f_y * v.beta *
+                             (w_connect * std::abs(cos_y_x) / (dist2 * std::abs(cos_y_chain)) * pool->weight);
+                    }
+                }
+            }
+        }
+
         // Continue the path: BSDF sampling, or (guided) a one-sample choice between BSDF and cache.
+        const bool in_delta = prev_delta;  // how the path reached this vertex (for last_y)
+        const float in_pdf = prev_pdf;
         Vec3 wo_world;
         if (cache < 0) {
             BsdfSample bs;
@@ -309,6 +392,13 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             if (samples) record(cache, texel, wo_world, p);
         }
         if (is_black(beta)) break;
+        if (ps.connect && !prev_delta) {
+            const float cos_x = dot(hit.ng, wi_world), cos_chain = dot(hit.ng, wo_world);
+            const Vec3 d = hit.p - prev_hit_p;
+            last_y = {depth >= 2 && !in_delta && cos_x * cos_chain > 0, in_pdf, prev_pdf, std::abs(cos_x),
+                      std::abs(cos_chain), dot(d, d)};
+        }
+        prev_hit_p = hit.p;
         caustic_chain = depth == 1 ? !prev_delta : caustic_chain && prev_delta;
         prev_p = ref;
         ray = spawn_ray(hit, wo_world);
@@ -351,7 +441,7 @@ struct PilotGrid {
 
 // Adds samples [s0, s1) of every pilot pixel to `acc`; returns the wall seconds taken.
 double run_pilot(const Scene& scene, const Camera& camera, int width, int height, int s0, int s1, uint64_t seed,
-                 const PathSettings& ps, std::vector<PilotPixel>& acc) {
+                 const PathSettings& ps, std::vector<PilotPixel>& acc, const LightVertexPools* pools) {
     const PilotGrid grid(width, height);
     acc.resize(grid.count());
     const auto t0 = std::chrono::steady_clock::now();
@@ -361,13 +451,16 @@ double run_pilot(const Scene& scene, const Camera& camera, int width, int height
             const int x = PilotGrid::coord(i, width), y = PilotGrid::coord(j, height);
             PilotPixel& pp = acc[size_t(j) * size_t(grid.px) + size_t(i)];
             for (int s = s0; s < s1; ++s) {
+                ConnectionPool pool;
+                if (ps.connect) pool = pool_of(*pools, s);
                 // Streams apart from the image's (sample indices from 2^23 on, which no render reaches);
                 // both techniques get the same numbers, which makes their comparison less noisy.
                 Rng rng = Rng::for_index(seed, Stream::Camera,
                                          ((uint64_t(y) * uint64_t(width) + uint64_t(x)) << 24) ^ uint64_t((1 << 23) + s));
                 const float fx = x + rng.next_float(), fy = y + rng.next_float();
                 RGB caustic(0.0f);
-                const RGB l = trace_path(scene, camera_ray(camera, fx, fy, width, height), rng, ps, counters, &caustic);
+                const RGB l = trace_path(scene, camera_ray(camera, fx, fy, width, height), rng, ps, counters, &caustic,
+                                         nullptr, ps.connect ? &pool : nullptr);
                 const bool ok = is_finite(l) && is_finite(caustic);
                 const double v = ok ? double(luminance(l)) : 0.0, r = ok ? double(luminance(l - caustic)) : 0.0;
                 pp.sum += v;
@@ -430,12 +523,13 @@ std::string describe(const PathSettings& s) {
         std::snprintf(buf, sizeof buf, ", roulette below %g from depth %d", s.rr_threshold, s.rr_depth);
         v += buf;
     }
+    if (s.connect) v += ", caustic connections";
     return v;
 }
 
 GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width, int height, uint64_t seed,
                              const std::vector<PathSettings>& candidates, double budget_seconds,
-                             const CausticTracer* light, double light_paths_per_pixel) {
+                             const CausticTracer* light, double light_paths_per_pixel, float paths_per_vertex) {
     // Passes of 2 samples per pilot pixel alternate between the candidates (so none alone pays for cold
     // caches or a busy machine) until the budget is spent, with at least kMinSpp and at most kMaxSpp
     // samples per pilot pixel: rare bright paths (caustics, fireflies) dominate relMSE, and only enough
@@ -447,14 +541,34 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
         d.candidates.back().settings.light_traced_caustics = false;  // the pilot sees every path; it splits them
     }
     d.guided_choice = candidates.size() > 1;
+    // Caustic connections (connections.h): each guided candidate also with them, always with the light
+    // tracer (whose paths fill the pools in the render). The pilot's pools: kPoolPaths light paths per
+    // sample index, from indices of their own.
+    const bool weigh_connect = d.guided_choice && light && paths_per_vertex > 0;
+    if (weigh_connect)
+        for (size_t c = 1, n = d.candidates.size(); c < n; ++c) {
+            d.candidates.push_back(d.candidates[c]);
+            d.candidates.back().settings.connect = true;
+            d.candidates.back().settings.paths_per_vertex = paths_per_vertex;
+        }
+    constexpr uint64_t kPoolPaths = 1 << 13, kPoolFirst = uint64_t(5) << 60;
+    LightVertexPools pools;
+    std::atomic<uint64_t> pool_rays{0};
     const size_t n_cand = d.candidates.size();
     std::vector<std::vector<PilotPixel>> acc(n_cand);
     std::vector<double> seconds(n_cand, 0.0);
     int spp = 0;
     double total = 0;
     while (spp < kMaxSpp && (spp < kMinSpp || total < budget_seconds)) {
+        if (weigh_connect) {
+            const auto t0 = std::chrono::steady_clock::now();
+            build_pools(*light, candidates[1].guide, seed, kPoolFirst, spp, spp + kPass, kPoolPaths, paths_per_vertex,
+                        &pools, nullptr, pool_rays);
+            total += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        }
         for (size_t c = 0; c < n_cand; ++c) {
-            const double t = run_pilot(scene, camera, width, height, spp, spp + kPass, seed, d.candidates[c].settings, acc[c]);
+            const double t = run_pilot(scene, camera, width, height, spp, spp + kPass, seed, d.candidates[c].settings, acc[c],
+                                       &pools);
             seconds[c] += t;
             total += t;
         }
@@ -550,7 +664,12 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
     std::vector<char> traced(n_cand, 0);
     for (size_t c = 0; c < n_cand; ++c) {
         best_ratio[c] = ratio(nt_off[c]);
-        if (light && (d.light_share_decides || ratio(nt_on[c]) > kLightMargin * best_ratio[c])) {
+        if (d.candidates[c].settings.connect) {
+            // Only with the light tracer, and only by a margin over the same candidate without them.
+            const size_t twin = c - (n_cand - 1) / 2;
+            best_ratio[c] = ratio(nt_on[c]) > kConnectMargin * best_ratio[twin] ? ratio(nt_on[c]) : 0.0;
+            traced[c] = 1;
+        } else if (light && (d.light_share_decides || ratio(nt_on[c]) > kLightMargin * best_ratio[c])) {
             best_ratio[c] = ratio(nt_on[c]);
             traced[c] = 1;
         }
@@ -681,6 +800,13 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     double light_paths_per_pixel = light_possible && opt.caustics == RenderOptions::Caustics::On
                                        ? (opt.light_paths_per_pixel > 0 ? opt.light_paths_per_pixel : 1.0)
                                        : 0.0;
+    // Caustic connections (connections.h): n from light paths of their own (indices no pass uses), so
+    // that the weights depend on no pool; before the pilot, which weighs them.
+    float paths_per_vertex = 0;
+    if (opt.connect != RenderOptions::Connect::Off && CausticTracer::possible(scene) && ps.mode != GuideMode::BsdfCache) {
+        constexpr uint64_t kEstimatePaths = 1 << 15, kEstimateFirst = uint64_t(3) << 61;
+        paths_per_vertex = estimate_paths_per_vertex(caustic_tracer, opt.seed, kEstimateFirst, kEstimatePaths);
+    }
     GuideDecision decision;
     const bool weigh_guiding = opt.auto_guide && ps.guide;
     const bool weigh_light = light_possible && opt.caustics == RenderOptions::Caustics::Auto;
@@ -695,7 +821,8 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
             for (const PathSettings& g : guided_candidates(ps, expand)) candidates.push_back(g);
         }
         decision = decide_guiding(scene, camera, width, height, opt.seed, candidates, timed ? 0.03 * opt.time : 0.0,
-                                  weigh_light ? &caustic_tracer : nullptr, opt.light_paths_per_pixel);
+                                  weigh_light ? &caustic_tracer : nullptr, opt.light_paths_per_pixel,
+                                  opt.connect == RenderOptions::Connect::Auto ? paths_per_vertex : 0.0f);
         if (!opt.quiet) std::fprintf(stderr, "render: %s\n", describe(decision).c_str());
         ps = decision.candidates[size_t(decision.chosen)].settings;
         if (weigh_light) light_paths_per_pixel = decision.light_paths_per_pixel;
@@ -711,6 +838,18 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
             : 0;
     if (light_paths_per_sample > 0) film.enable_light(double(light_paths_per_sample));
     ps.light_traced_caustics = light_paths_per_sample > 0;
+    // Caustic connections: with the light tracer's paths (or, where it does not run, one light path per
+    // pixel for the pools alone).
+    if (opt.connect == RenderOptions::Connect::On && paths_per_vertex > 0) {
+        ps.connect = true;
+        ps.paths_per_vertex = paths_per_vertex;
+    }
+    const uint64_t pool_paths_per_sample =
+        !ps.connect ? 0 : light_paths_per_sample > 0 ? light_paths_per_sample : uint64_t(width) * uint64_t(height);
+    if (opt.connect == RenderOptions::Connect::On && !opt.quiet)
+        std::fprintf(stderr, "render: caustic connections %s\n",
+                     ps.connect ? ("on (" + std::to_string(pool_paths_per_sample) + " light paths per sample pass)").c_str()
+                                : "off: no light path reaches a surface through a specular chain from an area light");
     Progress progress("render", timed ? uint64_t(opt.time * 1000) : uint64_t(part ? opt.sample_end - opt.sample_begin : target_spp) * tile_count, opt.quiet);
 
     // Hybrid caches: what the guided vertices receive (only while the chosen setting guides).
@@ -726,23 +865,27 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
 
     // One pass renders samples [s0, s1) of every pixel. Each sample's random numbers come from
     // (seed, pixel, sample index), so the image does not depend on threads or on how passes are cut.
-    auto run_pass = [&](int s0, int s1) {
+    LightVertexPools pools;
+    auto run_samples = [&](int s0, int s1) {
         tbb::parallel_for(0, tile_count, [&](int tile) {
             PathCounters counters;
             uint64_t bad = 0;
             int tx = tile % tiles_x, ty = tile / tiles_x;
             int x0 = tx * kTile, y0 = ty * kTile;
             int x1 = std::min(width, x0 + kTile), y1 = std::min(height, y0 + kTile);
-            for (int y = y0; y < y1; ++y)
-                for (int x = x0; x < x1; ++x) {
-                    uint64_t pixel = uint64_t(y) * uint64_t(width) + uint64_t(x);
-                    for (int s = s0; s < s1; ++s) {
+            // Sample by sample over the tile: with connections, the tile's paths then read one pool at a time.
+            for (int s = s0; s < s1; ++s) {
+                ConnectionPool pool;
+                if (ps.connect) pool = pool_of(pools, s);
+                for (int y = y0; y < y1; ++y)
+                    for (int x = x0; x < x1; ++x) {
+                        const uint64_t pixel = uint64_t(y) * uint64_t(width) + uint64_t(x);
                         Rng rng = Rng::for_index(opt.seed, Stream::Camera, (pixel << 24) ^ uint64_t(s));
                         float w;
                         Vec2 off = filter.sample({rng.next_float(), rng.next_float()}, &w);
                         float fx = x + 0.5f + off.x, fy = y + 0.5f + off.y;
                         RGB l = trace_path(scene, camera_ray(camera, fx, fy, width, height), rng, ps, counters,
-                                           nullptr, path_samples.get());
+                                           nullptr, path_samples.get(), ps.connect ? &pool : nullptr);
                         if (!is_finite(l) || !std::isfinite(w)) {
                             ++bad;  // counted and reported; the sample still counts with zero radiance
                             l = RGB(0.0f);
@@ -750,16 +893,33 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
                         }
                         film.add(x, y, l, w);
                     }
-                }
+            }
             rays += counters.rays;
             lookups += counters.lookups;
             nonfinite += bad;
             if (!timed) progress.advance(uint64_t(s1 - s0));
         });
-        if (light_paths_per_sample > 0)
+        if (light_paths_per_sample > 0 && !ps.connect)
             nonfinite += trace_light_paths(caustic_tracer, opt.seed, uint64_t(s0) * light_paths_per_sample,
                                            uint64_t(s1 - s0) * light_paths_per_sample,
                                            [&](const CausticSplat& sp) { film.add_light(sp.pixel, sp.value); }, rays);
+    };
+    // With connections, the light paths of a batch of samples come first (they fill its pools, and are
+    // splatted where the caustics are light-traced), in batches of at most ~1M light paths.
+    auto run_pass = [&](int s0, int s1) {
+        if (!ps.connect) return run_samples(s0, s1);
+        const int batch = int(std::max<uint64_t>(1, (uint64_t(1) << 20) / pool_paths_per_sample));
+        for (int a = s0; a < s1; a += batch) {
+            const int b = std::min(s1, a + batch);
+            nonfinite += build_pools(caustic_tracer, ps.guide, opt.seed, 0, a, b, pool_paths_per_sample, ps.paths_per_vertex,
+                                     &pools,
+                                     light_paths_per_sample > 0
+                                         ? std::function<void(const CausticSplat&)>(
+                                               [&](const CausticSplat& sp) { film.add_light(sp.pixel, sp.value); })
+                                         : nullptr,
+                                     rays);
+            run_samples(a, b);
+        }
     };
 
     // The image as it stands after `spp` samples per pixel (the final one, or a progressive snapshot).
@@ -778,10 +938,11 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
             char buf[512];
             std::snprintf(buf, sizeof buf,
                           "resolution %dx%d; seed %llu; mode %s; max_depth %d; rr_depth %d; rr_threshold %.9g; "
-                          "guide_vertices %d; guided %d; light paths per sample %llu; filter %d %.9g %.9g; spp %d",
+                          "guide_vertices %d; guided %d; light paths per sample %llu; connections %d %.9g; filter %d %.9g %.9g; spp %d",
                           width, height, (unsigned long long)opt.seed, guide_mode_name(ps.mode), ps.max_depth,
                           ps.rr_depth, double(ps.rr_threshold), ps.guide_vertices, ps.guide ? 1 : 0,
-                          (unsigned long long)light_paths_per_sample, int(scene.film.filter),
+                          (unsigned long long)light_paths_per_sample, ps.connect ? 1 : 0, double(ps.paths_per_vertex),
+                          int(scene.film.filter),
                           double(scene.film.filter_radius), double(scene.film.filter_stddev), target_spp);
             img.metadata["iris:settings"] = std::string(buf) + (opt.settings_extra.empty() ? "" : "; " + opt.settings_extra);
         }

@@ -41,6 +41,10 @@ struct RenderOptions {
     // or Auto (where the pilot predicts a win at equal time; it then also picks the light paths per pixel).
     enum class Caustics : uint8_t { Off, On, Auto } caustics = Caustics::Off;
     double light_paths_per_pixel = 0;  // light paths per pixel and pass; 0 = 1 (On) or the pilot's choice (Auto)
+    // Caustic connections (connections.h): camera paths join light-traced vertices after specular chains
+    // (with the light tracer's paths where caustics are light-traced, else one light path per pixel):
+    // Off, On, or Auto (where the pilot of --mode auto predicts a gain; otherwise off).
+    enum class Connect : uint8_t { Off, On, Auto } connect = Connect::Off;
     // Progressive snapshots: when > 0 and `snapshot` is set, it is called with the image so far about
     // every `snapshot_interval` seconds (between passes, on the calling thread).
     // Hybrid caches: where set (the same object as `guide`, built with GuideOptions::learn), the render
@@ -78,6 +82,11 @@ struct PathSettings {
     // The caustic class of caustics.h is light-traced: drop its paths (emitter hits after a Dirac chain
     // that began at the first vertex's non-Dirac event).
     bool light_traced_caustics = false;
+    // Caustic connections (connections.h): every non-Dirac vertex joins a light vertex of its sample's
+    // pool, and emitter hits after a Dirac chain from a later-bounce vertex take the path tracer's MIS
+    // weight against them. paths_per_vertex: n of connections.h.
+    bool connect = false;
+    float paths_per_vertex = 1;
 };
 
 // The pilot's verdict for automatic guiding and caustic light tracing: measured noise and cost of each
@@ -153,6 +162,8 @@ inline constexpr double kGuideMargin = 1.1;
 // light paths), with between these many light paths per pixel and pass.
 inline constexpr double kLightMargin = 1.05;
 inline constexpr double kMinLightPathsPerPixel = 1.0 / 16, kMaxLightPathsPerPixel = 4;
+// Caustic connections only where the pilot predicts this much gain over the same setting without them.
+inline constexpr double kConnectMargin = 1.05;
 // The caustic class's share of the image above which it is light-traced whatever the pilot predicts.
 inline constexpr double kMinCausticShare = 0.001;
 
@@ -174,10 +185,14 @@ std::string describe(const PathSettings& s);
 // most efficient. With light tracing, the number of light paths per pixel and pass F trades the light
 // tracer's noise v_l / F against its cost F t_l: the pilot takes F = sqrt(v_l t / (v t_l)) (v, t: the
 // camera paths' remaining noise and cost), within [1/16, 4], unless `light_paths_per_pixel` > 0 fixes it.
+// Where `paths_per_vertex` > 0 (n of connections.h) and guiding and light tracing are weighed, each guided
+// candidate is also measured with caustic connections (always with the light tracer, whose paths fill
+// the pools), and is chosen with them only if they gain kConnectMargin.
 class CausticTracer;
 GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width, int height, uint64_t seed,
                              const std::vector<PathSettings>& candidates, double budget_seconds,
-                             const CausticTracer* light = nullptr, double light_paths_per_pixel = 0);
+                             const CausticTracer* light = nullptr, double light_paths_per_pixel = 0,
+                             float paths_per_vertex = 0);
 
 // The lobe the product technique stands in for (Guide::product) where a cache guides a vertex whose BSDF
 // is one glossy lobe (a rough conductor, a Ward without a diffuse part): a spherical Gaussian about the
@@ -196,8 +211,11 @@ class Rng;
 // ps.light_traced_caustics.
 // Where `samples` is given (hybrid caches: ps.guide learning), each vertex a cache serves adds the
 // radiance its continuation received to that cache's texel (PathSamples); the path itself is the same.
+// With ps.connect, `pool` is the sample's pool of light vertices (an empty one still weighs the path
+// tracer's own contributions, as the strategies' weights must not depend on it).
+struct ConnectionPool;
 RGB trace_path(const Scene& scene, const Ray& ray, Rng& rng, const PathSettings& ps, PathCounters& counters,
-               RGB* caustic = nullptr, PathSamples* samples = nullptr);
+               RGB* caustic = nullptr, PathSamples* samples = nullptr, const ConnectionPool* pool = nullptr);
 
 // Renders the image. Throws std::runtime_error on invalid options.
 Image render_image(const Scene& scene, const RenderOptions& options, RenderStats* stats);

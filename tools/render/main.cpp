@@ -65,6 +65,12 @@ int main(int argc, char** argv) {
                    "predicts a gain at equal time, weighed with guiding) | on | off (default otherwise)");
     app.add_option("--light-paths", opt.light_paths_per_pixel,
                    "With --caustics: light paths per pixel and pass (default: 1 with on, the pilot's choice with auto)");
+    std::string connect;
+    app.add_option("--connect", connect,
+                   "Caustic connections: every non-specular vertex of a camera path also joins a light path's vertex "
+                   "behind a specular chain (light reflected off a caustic), weighed against the path tracer by MIS: "
+                   "auto (default with --mode auto: where its pilot predicts a gain, with the caustics light-traced) | "
+                   "on | off (default otherwise)");
     app.add_option("--snapshot", opt.snapshot_interval,
                    "Every SECONDS, write the image so far to the output (atomically), so that an interrupted "
                    "render still leaves a usable image");
@@ -116,6 +122,11 @@ int main(int argc, char** argv) {
         guide_options.learn = learn;
         if (product != "on" && product != "off") throw std::runtime_error("--product must be on or off, got '" + product + "'");
         guide_options.product = product == "on";
+        if (connect.empty()) connect = opt.auto_guide ? "auto" : "off";
+        if (connect == "auto") opt.connect = iris::RenderOptions::Connect::Auto;
+        else if (connect == "on") opt.connect = iris::RenderOptions::Connect::On;
+        else if (connect == "off") opt.connect = iris::RenderOptions::Connect::Off;
+        else throw std::runtime_error("--connect must be auto, on or off, got '" + connect + "'");
         if (bsdf_fraction != "auto") {
             guide_options.bsdf_fraction = iris::parse_float_option("--bsdf-fraction", bsdf_fraction);
             if (!(guide_options.bsdf_fraction >= 0 && guide_options.bsdf_fraction < 1))
