@@ -107,11 +107,13 @@ def cmd_reference(a):
         # on the caustic scenes, and its variance layers let the report take that noise out of every relMSE.
         # Guided and unguided renders agree per pixel (tests/pipeline/test_guiding_unbiased.cpp); the report
         # also checks the reference against an unguided one of the same scene and size (runs --check-reference).
+        # Without caustic connections (render --connect off), so that the reference does not rest on the
+        # newest estimator it may be judging.
         prep = os.path.splitext(a.output)[0] + ".prep"
         run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + a.scene, "OUT=" + prep, "BIN=" + BIN,
              "SEED=1000004", "atlas"])
         cmd = [BIN + "/render", a.scene, "--atlas", os.path.join(prep, "atlas.h5"), "--mode", "auto",
-               "--caustics", "auto", "--time", "%g" % a.guided_seconds, "--resolution", "%dx%d" % (w, h),
+               "--caustics", "auto", "--connect", "off", "--time", "%g" % a.guided_seconds, "--resolution", "%dx%d" % (w, h),
                "--seed", "1000005", "--variance", "-q", "-o", a.output]
     else:
         cmd = [BIN + "/render", a.scene, "-o", a.output, "--mode", "nee+bsdf", "--spp", str(a.spp),
