@@ -9,6 +9,8 @@
 //   domain of the forward maps, so that inverses can be fed straight back into sample_*.
 #include "libcommon/sampling.h"
 
+#include "libcommon/rng.h"
+
 #include <algorithm>
 #include <stdexcept>
 #include <string>
@@ -198,6 +200,71 @@ uint32_t Distribution1D::sample(float u, float* u_remapped) const {
         *u_remapped = clamp_unit(float(r));
     }
     return uint32_t(i);
+}
+
+namespace {
+
+inline uint32_t reverse_bits(uint32_t x) {
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
+    return (x >> 16) | (x << 16);
+}
+
+// Nested uniform scramble of a 32-bit fraction (its most significant bit is the first digit): each
+// digit is flipped by a hash of the seed and the digits above it only. On the reversed bits that is a
+// function in which every output bit depends on the bits below it, which additions and multiplications
+// by even constants are (Laine-Karras; constants from Burley 2020's improved version).
+inline uint32_t nested_uniform_scramble(uint32_t x, uint32_t seed) {
+    x = reverse_bits(x);
+    x += seed;
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return reverse_bits(x);
+}
+
+// Sobol dimension 1 of an index whose bits other than byte b are zero: kSobol1[b][byte].
+struct Sobol1Tables {
+    uint32_t t[4][256];
+    constexpr Sobol1Tables() : t{} {
+        uint32_t col[32] = {};  // column k of the generator matrix: v_0 = 2^31, v_k = v_{k-1} ^ (v_{k-1} >> 1)
+        for (uint32_t k = 0, v = 1u << 31; k < 32; ++k, v ^= v >> 1) col[k] = v;
+        for (int b = 0; b < 4; ++b)
+            for (uint32_t byte = 0; byte < 256; ++byte) {
+                uint32_t r = 0;
+                for (int j = 0; j < 8; ++j)
+                    if (byte & (1u << j)) r ^= col[8 * b + j];
+                t[b][byte] = r;
+            }
+    }
+    const uint32_t* operator[](int b) const { return t[b]; }
+};
+constexpr Sobol1Tables kSobol1;
+
+}  // namespace
+
+Vec2 owen_sobol_2d(uint32_t index, uint64_t scramble) {
+    // The index shuffled first (Burley 2020): a nested scramble of the index as a fraction leaves its
+    // unused high bits a constant C for all indices below 2^k and permutes the low k bits, so the first
+    // 2^k samples are Sobol points C 2^k .. C 2^k + 2^k - 1, an aligned block and therefore a net too;
+    // and two sequences with different scrambles are no longer paired digit by digit (without it, the
+    // coarsest digits of every sequence's point s were the same function of s: the pixel position and
+    // the first bounce's direction moved together, and each pixel's estimate had an error its sample
+    // variance did not show).
+    index = nested_uniform_scramble(index, uint32_t(mix64(scramble)));
+    // Dimension 0: the identity generator matrix (the radical inverse); dimension 1: Pascal's triangle
+    // mod 2, whose columns are v_k = v_{k-1} ^ (v_{k-1} >> 1) from the top bit.
+    // The shuffled index has all 32 bits in use, so dimension 1 is XORed from one table per byte of it
+    // (the matrix is linear over GF(2)) instead of a loop over 32 bits: four loads per point.
+    const uint32_t d0 = reverse_bits(index);
+    const uint32_t d1 = kSobol1[0][index & 0xff] ^ kSobol1[1][(index >> 8) & 0xff] ^ kSobol1[2][(index >> 16) & 0xff] ^
+                        kSobol1[3][index >> 24];
+    const uint32_t a = nested_uniform_scramble(d0, uint32_t(scramble));
+    const uint32_t b = nested_uniform_scramble(d1, uint32_t(scramble >> 32));
+    return {float(a >> 8) * 0x1p-24f, float(b >> 8) * 0x1p-24f};
 }
 
 }  // namespace iris

@@ -60,6 +60,17 @@ inline float one_minus_cos_theta(Vec3 w) {
 Vec2 sample_uniform_triangle(Vec2 u);
 Vec2 invert_uniform_triangle(Vec2 b);
 
+// Point `index` of a 2D Sobol (0,2)-sequence (its first two dimensions: the van der Corput radical
+// inverse and the Pascal-matrix dimension), at an index shuffled by a nested scramble and with each
+// coordinate Owen-scrambled (nested uniform digit scrambling, Owen 1995, by a hash as Laine and Karras
+// 2011 / Burley 2020 describe), all three from `scramble`. For each fixed scramble, the points
+// 0 .. 2^k - 1 are a (0,k,2)-net: every elementary interval of area 2^-k (2^a x 2^(k-a) cells) holds
+// exactly one, so any prefix of the sequence is stratified at every power of two, as a progressive
+// render needs; over random scrambles every single point is uniform on [0,1)^2, so estimates stay
+// unbiased, and sequences with different scrambles pair their points at random (Burley's padding).
+// Coordinates in [0, 1), 24 bits.
+Vec2 owen_sobol_2d(uint32_t index, uint64_t scramble);
+
 // Index of the first element of the sorted a[0..n) greater than x, n if none: std::upper_bound without
 // its unpredictable branches (the comparison compiles to a conditional move). A search over a few
 // hundred entries costs tens of nanoseconds less: the pixel filter searches twice per camera sample,

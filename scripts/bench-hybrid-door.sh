@@ -35,8 +35,8 @@ guided() { echo "--atlas $OUT/p$1/atlas.h5 --mode nee+bsdf+cache --guide-vertice
 
 ref_unguided=$REF_DIR/door-$RES-unguided-2048spp.exr
 ref_hybrid=$REF_DIR/door-$RES-hybrid-300s.exr
-[[ -f $ref_unguided ]] || "$BIN/render" $SCENE -o "$ref_unguided" --resolution $RES --spp 2048 --seed 1000003 --variance -q
-[[ -f $ref_hybrid ]] || "$BIN/render" $SCENE -o "$ref_hybrid" --resolution $RES --time 300 --seed 2000003 --variance \
+[[ -f $ref_unguided ]] || "$BIN/render" $SCENE -o "$ref_unguided" --resolution $RES --spp 2048 --seed 1000003 --variance --sampler independent -q
+[[ -f $ref_hybrid ]] || "$BIN/render" $SCENE -o "$ref_hybrid" --resolution $RES --time 300 --seed 2000003 --variance --sampler independent \
   -q $(guided 25000) --learn
 
 table() {  # budget repeats paths

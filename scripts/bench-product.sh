@@ -35,9 +35,9 @@ table() {  # budget repeats
 
 ref_unguided=$REF_DIR/glossy_spheres-$RES-unguided-2048spp.exr
 ref_guided=$REF_DIR/glossy_spheres-$RES-every-240s.exr
-[[ -f $ref_unguided ]] || "$BIN/render" $SCENE -o "$ref_unguided" --resolution $RES --spp 2048 --seed 1000003 --variance -q \
+[[ -f $ref_unguided ]] || "$BIN/render" $SCENE -o "$ref_unguided" --resolution $RES --spp 2048 --seed 1000003 --variance --sampler independent -q \
   --no-scene-warnings
-[[ -f $ref_guided ]] || "$BIN/render" $SCENE -o "$ref_guided" --resolution $RES --time 240 --seed 2000003 --variance -q \
+[[ -f $ref_guided ]] || "$BIN/render" $SCENE -o "$ref_guided" --resolution $RES --time 240 --seed 2000003 --variance --sampler independent -q \
   $every --product off --no-scene-warnings
 
 {

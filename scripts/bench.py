@@ -108,16 +108,17 @@ def cmd_reference(a):
         # Guided and unguided renders agree per pixel (tests/pipeline/test_guiding_unbiased.cpp); the report
         # also checks the reference against an unguided one of the same scene and size (runs --check-reference).
         # Without caustic connections (render --connect off), so that the reference does not rest on the
-        # newest estimator it may be judging.
+        # newest estimator it may be judging. References take independent samples (--sampler independent):
+        # only then are their variance layers unbiased estimates of their noise, which the report removes.
         prep = os.path.splitext(a.output)[0] + ".prep"
         run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + a.scene, "OUT=" + prep, "BIN=" + BIN,
              "SEED=1000004", "atlas"])
         cmd = [BIN + "/render", a.scene, "--atlas", os.path.join(prep, "atlas.h5"), "--mode", "auto",
                "--caustics", "auto", "--connect", "off", "--time", "%g" % a.guided_seconds, "--resolution", "%dx%d" % (w, h),
-               "--seed", "1000005", "--variance", "-q", "-o", a.output]
+               "--seed", "1000005", "--variance", "--sampler", "independent", "-q", "-o", a.output]
     else:
         cmd = [BIN + "/render", a.scene, "-o", a.output, "--mode", "nee+bsdf", "--spp", str(a.spp),
-               "--resolution", "%dx%d" % (w, h), "--seed", "1000003", "--variance", "-q"]
+               "--resolution", "%dx%d" % (w, h), "--seed", "1000003", "--variance", "--sampler", "independent", "-q"]
     seconds, _, _ = run(cmd)
     meta = metadata(a.output)
     with open(a.output + ".manifest.tmp", "w") as f:

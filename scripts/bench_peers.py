@@ -61,7 +61,7 @@ def cmd_reference(a):
     w, h = bench.scaled_resolution(a.scene, a.scale)
     os.makedirs(os.path.dirname(a.output) or ".", exist_ok=True)
     cmd = [bench.BIN + "/render", a.scene, "-o", a.output, "--mode", "nee+bsdf", "--time", "%g" % a.seconds,
-           "--resolution", "%dx%d" % (w, h), "--seed", "1000003", "--variance", "-q"]
+           "--resolution", "%dx%d" % (w, h), "--seed", "1000003", "--variance", "--sampler", "independent", "-q"]
     seconds, _, _ = bench.run(cmd)
     meta = bench.metadata(a.output)
     with open(a.output + ".manifest.tmp", "w") as f:

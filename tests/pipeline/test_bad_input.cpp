@@ -366,6 +366,7 @@ const BadInputCase kCases[] = {
     {"RenderUnknownCaustics", "render", "--caustics that does not exist", "{in}/valid.xml --caustics sometimes -o {out}", "sometimes"},
     {"RenderUnknownProduct", "render", "--product that is neither on nor off", "{in}/valid.xml --product maybe -o {out}", "maybe"},
     {"RenderUnknownConnect", "render", "--connect that does not exist", "{in}/valid.xml --connect sometimes -o {out}", "sometimes"},
+    {"RenderUnknownSampler", "render", "--sampler that does not exist", "{in}/valid.xml --sampler halton -o {out}", "halton"},
     {"RenderLightPathsZero", "render", "--light-paths 0", "{in}/valid.xml --caustics on --light-paths 0 -o {out}", "--light-paths"},
     {"RenderCacheModeWithoutAtlas", "render", "--mode nee+cache without --atlas", "{in}/valid.xml --mode nee+cache -o {out}", "--atlas"},
     {"RenderSampleRangeWithTime", "render", "--sample-range with --time", "{in}/valid.xml --time 1 --sample-range 0:2 -o {out}", "--time"},

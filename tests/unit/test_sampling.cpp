@@ -1,6 +1,7 @@
 // Exact checks of the warps and of Distribution1D (STYLE.md habit 7): sample -> invert round trips,
 // inverses at the domain edges, PDFs that integrate to one, PDFs that equal the inverse Jacobian
-// determinant of the map, and a discrete distribution whose choices match its pmf.
+// determinant of the map, a discrete distribution whose choices match its pmf, and the stratification
+// and uniformity of the scrambled Sobol points.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -441,6 +442,74 @@ TEST(Distribution1D, LargeTableKeepsTinyBins) {
     float u_at = float(500000.0 / 999998.25);
     for (float u = std::nextafter(u_at, 0.0f), k = 0; k < 8; ++k, u = std::nextafter(u, 1.0f))
         EXPECT_NE(d.sample(u), 500000u);
+}
+
+
+// owen_sobol_2d: for any scramble, the first 2^k points form a (0,k,2)-net (one point in every
+// elementary interval of area 2^-k), which is what makes a progressive render's prefix stratified.
+TEST(OwenSobol, PrefixesAreZeroNets) {
+    for (uint64_t scramble : {uint64_t(0), uint64_t(0x9e3779b97f4a7c15ULL), mix64(7), mix64(12345)}) {
+        for (int k = 1; k <= 10; ++k) {
+            const uint32_t n = 1u << k;
+            for (int a = 0; a <= k; ++a) {
+                // 2^a columns x 2^(k-a) rows.
+                std::vector<int> count(n, 0);
+                for (uint32_t i = 0; i < n; ++i) {
+                    const Vec2 p = owen_sobol_2d(i, scramble);
+                    ASSERT_TRUE(p.x >= 0 && p.x < 1 && p.y >= 0 && p.y < 1);
+                    const uint32_t cx = uint32_t(p.x * float(1u << a)), cy = uint32_t(p.y * float(1u << (k - a)));
+                    ++count[(cy << a) | cx];
+                }
+                for (uint32_t c = 0; c < n; ++c)
+                    ASSERT_EQ(count[c], 1) << "scramble " << scramble << ", 2^" << k << " points, 2^" << a << " columns, cell " << c;
+            }
+        }
+    }
+}
+
+// Over random scrambles a single point is uniform: each coordinate's histogram over 16 bins, for a fixed
+// index, is flat within 5 standard deviations; and the two coordinates are scrambled independently
+// (their correlation over scrambles is near zero).
+TEST(OwenSobol, EachPointIsUniformOverScrambles) {
+    constexpr int kScrambles = 1 << 16, kBins = 16;
+    for (uint32_t index : {0u, 1u, 5u, 1000u}) {
+        std::vector<int> hx(kBins, 0), hy(kBins, 0);
+        double sxy = 0, sx = 0, sy = 0;
+        for (int s = 0; s < kScrambles; ++s) {
+            const Vec2 p = owen_sobol_2d(index, mix64(uint64_t(s) + 0x1234));
+            ++hx[int(p.x * kBins)];
+            ++hy[int(p.y * kBins)];
+            sxy += double(p.x) * p.y;
+            sx += p.x;
+            sy += p.y;
+        }
+        const double expect = double(kScrambles) / kBins, sd = std::sqrt(expect * (1 - 1.0 / kBins));
+        for (int b = 0; b < kBins; ++b) {
+            EXPECT_LT(std::abs(hx[b] - expect), 5 * sd) << "index " << index << ", x bin " << b;
+            EXPECT_LT(std::abs(hy[b] - expect), 5 * sd) << "index " << index << ", y bin " << b;
+        }
+        const double cov = sxy / kScrambles - (sx / kScrambles) * (sy / kScrambles);
+        EXPECT_LT(std::abs(cov), 5 * (1.0 / 12) / std::sqrt(double(kScrambles))) << "index " << index;
+    }
+}
+
+// Two sequences with different scrambles (render_image's pixel position and first-bounce samples) must
+// not move together: for each pair of scrambles, over the first 256 points, how often both x lie in the
+// same half. Independently paired that is 0.5 on average with a spread of 1/32; sequences paired digit
+// by digit (scrambled points without a shuffled index) agree on every point or on none.
+TEST(OwenSobol, SequencesWithDifferentScramblesAreNotPairedDigitByDigit) {
+    constexpr int kPairs = 400, kPoints = 256;
+    int all_or_none = 0;
+    double sum = 0;
+    for (int p = 0; p < kPairs; ++p) {
+        const uint64_t a = mix64(uint64_t(2 * p) + 99), b = mix64(uint64_t(2 * p + 1) + 99);
+        int same = 0;
+        for (uint32_t i = 0; i < kPoints; ++i) same += (owen_sobol_2d(i, a).x < 0.5f) == (owen_sobol_2d(i, b).x < 0.5f);
+        all_or_none += same == 0 || same == kPoints;
+        sum += double(same) / kPoints;
+    }
+    EXPECT_EQ(all_or_none, 0);
+    EXPECT_NEAR(sum / kPairs, 0.5, 5 * (1.0 / 32) / std::sqrt(double(kPairs)));
 }
 
 }  // namespace

@@ -76,7 +76,7 @@ float guided_density(const Guide& guide, int cache, GuideMode mode, const Bsdf& 
 }  // namespace
 
 RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSettings& ps, PathCounters& counters,
-               RGB* caustic, PathSamples* samples, const ConnectionPool* pool) {
+               RGB* caustic, PathSamples* samples, const ConnectionPool* pool, const FirstVertexSamples* first) {
     const Guide* guide = ps.guide;
     const bool use_nee = ps.mode != GuideMode::BsdfCache;
     RGB L(0.0f), beta(1.0f);
@@ -186,13 +186,15 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // will read then start loading before NEE's shadow ray.
 
         // Random numbers in a fixed order: the continuation's, then the light's.
+        // (At the first vertex the 2D numbers may come from the pixel's stratified sequence instead.)
+        const bool stratified = depth == 1 && first;
         const float uc = rng.next_float();
-        const Vec2 u{rng.next_float(), rng.next_float()};
+        const Vec2 u = stratified ? first->u_continue : Vec2{rng.next_float(), rng.next_float()};
         LightSample ls;
         bool light_found = false;  // NEE only where the BSDF has a non-delta part
         if (use_nee && !delta_only) {
             const float u_sel = rng.next_float();
-            const Vec2 u_light{rng.next_float(), rng.next_float()};
+            const Vec2 u_light = stratified ? first->u_light : Vec2{rng.next_float(), rng.next_float()};
             light_found = sample_light(scene, ref, u_sel, u_light, &ls) && ls.pdf > 0 && !is_black(ls.radiance);
         }
 
@@ -866,6 +868,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     // One pass renders samples [s0, s1) of every pixel. Each sample's random numbers come from
     // (seed, pixel, sample index), so the image does not depend on threads or on how passes are cut.
     LightVertexPools pools;
+    const bool sobol = opt.sampler == RenderOptions::Sampler::Sobol;
     auto run_samples = [&](int s0, int s1) {
         tbb::parallel_for(0, tile_count, [&](int tile) {
             PathCounters counters;
@@ -882,10 +885,23 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
                         const uint64_t pixel = uint64_t(y) * uint64_t(width) + uint64_t(x);
                         Rng rng = Rng::for_index(opt.seed, Stream::Camera, (pixel << 24) ^ uint64_t(s));
                         float w;
-                        Vec2 off = filter.sample({rng.next_float(), rng.next_float()}, &w);
+                        Vec2 u_filter;
+                        FirstVertexSamples first;
+                        if (sobol) {
+                            // Three 2D sequences of the pixel, each with scrambles of its own: sample s
+                            // is point s of each, and the shuffled indices pair them at random.
+                            const uint64_t h = hash3(opt.seed, uint64_t(Stream::Camera), pixel);
+                            u_filter = owen_sobol_2d(uint32_t(s), mix64(h));
+                            first.u_continue = owen_sobol_2d(uint32_t(s), mix64(h + 1));
+                            first.u_light = owen_sobol_2d(uint32_t(s), mix64(h + 2));
+                        } else {
+                            u_filter = Vec2{rng.next_float(), rng.next_float()};
+                        }
+                        Vec2 off = filter.sample(u_filter, &w);
                         float fx = x + 0.5f + off.x, fy = y + 0.5f + off.y;
                         RGB l = trace_path(scene, camera_ray(camera, fx, fy, width, height), rng, ps, counters,
-                                           nullptr, path_samples.get(), ps.connect ? &pool : nullptr);
+                                           nullptr, path_samples.get(), ps.connect ? &pool : nullptr,
+                                           sobol ? &first : nullptr);
                         if (!is_finite(l) || !std::isfinite(w)) {
                             ++bad;  // counted and reported; the sample still counts with zero radiance
                             l = RGB(0.0f);
@@ -938,11 +954,11 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
             char buf[512];
             std::snprintf(buf, sizeof buf,
                           "resolution %dx%d; seed %llu; mode %s; max_depth %d; rr_depth %d; rr_threshold %.9g; "
-                          "guide_vertices %d; guided %d; light paths per sample %llu; connections %d %.9g; filter %d %.9g %.9g; spp %d",
+                          "guide_vertices %d; guided %d; light paths per sample %llu; connections %d %.9g; sampler %d; filter %d %.9g %.9g; spp %d",
                           width, height, (unsigned long long)opt.seed, guide_mode_name(ps.mode), ps.max_depth,
                           ps.rr_depth, double(ps.rr_threshold), ps.guide_vertices, ps.guide ? 1 : 0,
                           (unsigned long long)light_paths_per_sample, ps.connect ? 1 : 0, double(ps.paths_per_vertex),
-                          int(scene.film.filter),
+                          int(opt.sampler), int(scene.film.filter),
                           double(scene.film.filter_radius), double(scene.film.filter_stddev), target_spp);
             img.metadata["iris:settings"] = std::string(buf) + (opt.settings_extra.empty() ? "" : "; " + opt.settings_extra);
         }
@@ -958,6 +974,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
         img.metadata["iris:version"] = IRIS_VERSION;
         img.metadata["iris:tool"] = "render";
         img.metadata["iris:mode"] = guide_mode_name(ps.mode);
+        img.metadata["iris:sampler"] = sobol ? "sobol" : "independent";
         if (weigh_guiding || weigh_light) img.metadata["iris:auto_guide"] = describe(decision);
         else if (opt.auto_guide)  // (without a guide: the atlas had no cache that guides; no pilot ran)
             img.metadata["iris:auto_guide"] = "unguided: no cache in the atlas guides";

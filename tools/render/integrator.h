@@ -45,6 +45,10 @@ struct RenderOptions {
     // (with the light tracer's paths where caustics are light-traced, else one light path per pixel):
     // Off, On, or Auto (where the pilot of --mode auto predicts a gain; otherwise off).
     enum class Connect : uint8_t { Off, On, Auto } connect = Connect::Off;
+    // How a pixel's samples draw the camera's dimensions: Sobol (each pixel's samples stratify the
+    // pixel filter's 2D sample and the first vertex's continuation and light samples: owen_sobol_2d) or
+    // Independent (every number from the sample's own generator).
+    enum class Sampler : uint8_t { Sobol, Independent } sampler = Sampler::Sobol;
     // Progressive snapshots: when > 0 and `snapshot` is set, it is called with the image so far about
     // every `snapshot_interval` seconds (between passes, on the calling thread).
     // Hybrid caches: where set (the same object as `guide`, built with GuideOptions::learn), the render
@@ -213,9 +217,15 @@ class Rng;
 // radiance its continuation received to that cache's texel (PathSamples); the path itself is the same.
 // With ps.connect, `pool` is the sample's pool of light vertices (an empty one still weighs the path
 // tracer's own contributions, as the strategies' weights must not depend on it).
+// Where `first` is given, the first vertex takes its continuation's and its light sample's 2D numbers
+// from it (render_image's Sobol sampler) instead of from rng.
 struct ConnectionPool;
+struct FirstVertexSamples {
+    Vec2 u_continue, u_light;
+};
 RGB trace_path(const Scene& scene, const Ray& ray, Rng& rng, const PathSettings& ps, PathCounters& counters,
-               RGB* caustic = nullptr, PathSamples* samples = nullptr, const ConnectionPool* pool = nullptr);
+               RGB* caustic = nullptr, PathSamples* samples = nullptr, const ConnectionPool* pool = nullptr,
+               const FirstVertexSamples* first = nullptr);
 
 // Renders the image. Throws std::runtime_error on invalid options.
 Image render_image(const Scene& scene, const RenderOptions& options, RenderStats* stats);

@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
     app.add_option("--rr-depth", opt.rr_depth, "Depth at which Russian roulette starts, -1 = none (default: the scene's)");
     app.add_option("--rr-threshold", opt.rr_threshold,
                    "Throughput below which Russian roulette plays, in (0, 1]; 1 = Mitsuba's rule (default 0.3)");
-    app.add_flag("--variance", opt.variance_layer, "Add layers variance.R/G/B (variance of each pixel's estimate)");
+    app.add_flag("--variance", opt.variance_layer, "Add layers variance.R/G/B (variance of each pixel's estimate: sample variance / n; with --sampler sobol as a rule an overstatement)");
     app.add_flag("--sample-count", opt.samples_layer, "Add a layer 'samples' with the samples per pixel");
     app.add_option("--atlas", atlas_path, "Cache atlas from fill-caches: guide the path tracer with it");
     app.add_option("--mode", mode,
@@ -71,6 +71,11 @@ int main(int argc, char** argv) {
                    "behind a specular chain (light reflected off a caustic), weighed against the path tracer by MIS: "
                    "auto (default with --mode auto: where its pilot predicts a gain, with the caustics light-traced) | "
                    "on | off (default otherwise)");
+    std::string sampler = "sobol";
+    app.add_option("--sampler", sampler,
+                   "Random numbers of a pixel's samples: sobol (default: the pixel position and the first bounce's "
+                   "direction and light samples are stratified across the pixel's samples, Owen-scrambled Sobol) | "
+                   "independent (every sample's own random numbers)");
     app.add_option("--snapshot", opt.snapshot_interval,
                    "Every SECONDS, write the image so far to the output (atomically), so that an interrupted "
                    "render still leaves a usable image");
@@ -127,6 +132,9 @@ int main(int argc, char** argv) {
         else if (connect == "on") opt.connect = iris::RenderOptions::Connect::On;
         else if (connect == "off") opt.connect = iris::RenderOptions::Connect::Off;
         else throw std::runtime_error("--connect must be auto, on or off, got '" + connect + "'");
+        if (sampler == "sobol") opt.sampler = iris::RenderOptions::Sampler::Sobol;
+        else if (sampler == "independent") opt.sampler = iris::RenderOptions::Sampler::Independent;
+        else throw std::runtime_error("--sampler must be sobol or independent, got '" + sampler + "'");
         if (bsdf_fraction != "auto") {
             guide_options.bsdf_fraction = iris::parse_float_option("--bsdf-fraction", bsdf_fraction);
             if (!(guide_options.bsdf_fraction >= 0 && guide_options.bsdf_fraction < 1))
