@@ -14,16 +14,13 @@ import argparse
 import datetime
 import os
 import statistics
-import subprocess
 import sys
-import time
 
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import bench  # noqa: E402
 import exr  # noqa: E402
-
-BIN = os.environ.get("IRIS_BIN", "build/bin")
 
 # Scene, resolution (half the film), and the modes measured. The guided settings are what render
 # --mode auto chose on these scenes in docs/benchmarks/targets-connect.md, fixed here so that every seed
@@ -45,19 +42,6 @@ SCENES = [
 SAMPLERS = ("independent", "sobol")
 
 
-def run(cmd):
-    t0 = time.monotonic()
-    r = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    if r.returncode != 0:
-        sys.exit("bench_sampler: %s failed:\n%s" % (" ".join(cmd), r.stderr))
-    return time.monotonic() - t0
-
-
-def luminance(path):
-    ch = exr.read(path)
-    return (ch["R"] + ch["G"] + ch["B"]) / 3.0
-
-
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", required=True, help="folder for the renders")
@@ -77,20 +61,20 @@ def main():
         out = os.path.join(a.out, name)
         os.makedirs(out, exist_ok=True)
         if any(m != "nee+bsdf" for m, _ in modes):
-            subprocess.run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + scene, "OUT=" + out, "BIN=" + BIN,
-                            "atlas"], check=True)
+            bench.run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + scene, "OUT=" + out, "BIN=" + bench.BIN,
+                       "atlas"])
         images, seconds = {}, {}
         # Seeds outermost and samplers interleaved, so that a busy spell of the machine hits both.
         for seed in range(1, a.seeds + 1):
             for mode, extra in modes:
                 for sampler in SAMPLERS:
                     path = os.path.join(out, "%s-%s-%d.exr" % (mode.replace("+", "_"), sampler, seed))
-                    cmd = [BIN + "/render", scene, "-o", path, "--spp", str(a.spp), "--resolution", res, "--seed",
+                    cmd = [bench.BIN + "/render", scene, "-o", path, "--spp", str(a.spp), "--resolution", res, "--seed",
                            str(seed), "-t", str(a.threads), "-q", "--no-scene-warnings", "--sampler", sampler] + extra
                     if mode != "nee+bsdf":
                         cmd += ["--atlas", os.path.join(out, "atlas.h5")]
-                    seconds.setdefault((mode, sampler), []).append(run(cmd))
-                    images.setdefault((mode, sampler), []).append(luminance(path))
+                    seconds.setdefault((mode, sampler), []).append(bench.run(cmd)[0])
+                    images.setdefault((mode, sampler), []).append(exr.rgb(path).mean(axis=2))
         mean = np.mean([im for ims in images.values() for im in ims], axis=0)
         denom = mean * mean + 0.01
         result = {}
@@ -116,13 +100,13 @@ def main():
     for name, mode, ind, sob in rows:
         lines.append("| `%s` | %s | %.4g | %.2f | %.4g | %.2f | %.2f |" % (name, mode, ind[0], ind[1], sob[0], sob[1],
                                                                         sob[2] / ind[2]))
-    guided = [(n, r) for n, r in ((n, [x for x in rows if x[0] == n]) for n in dict.fromkeys(x[0] for x in rows))
-              if len(r) == 2]
-    if guided:
+    # Scenes measured in both modes: rows (name, "nee+bsdf", ...) then (name, "guided", ...).
+    pairs = [(u, g) for u, g in zip(rows, rows[1:]) if u[0] == g[0]]
+    if pairs:
         lines += ["", "Efficiency of the guided mode over nee+bsdf, with each sampler:", "",
                   "| scene | independent | sobol |", "|---|---|---|"]
-        for n, (u, g) in guided:
-            lines.append("| `%s` | %.2f | %.2f |" % (n, g[2][2] / u[2][2], g[3][2] / u[3][2]))
+        for u, g in pairs:
+            lines.append("| `%s` | %.2f | %.2f |" % (u[0], g[2][2] / u[2][2], g[3][2] / u[3][2]))
     tmp = a.output + ".tmp"
     with open(tmp, "w") as f:
         f.write("\n".join(lines) + "\n")
