@@ -3,6 +3,7 @@
 // (STYLE.md habit 5). Bad input is catalogued in test_bad_input.cpp.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -89,6 +90,29 @@ TEST_F(GuidingCli, TracePhotonsIsDeterministicForAnyThreadCount) {
     EXPECT_EQ(differ, 0u) << "photons differ between -t 1 and -t 2";
     PhotonMap c = trace("c.h5", " --seed 4 -t 2");
     EXPECT_TRUE(c.size() != a.size() || c.position[0][0] != a.position[0][0]) << "the seed has no effect";
+}
+
+// --photons M: the path count comes from photons per path on a probe of the first paths, so the map
+// holds about M photons and is, bit for bit, the map of --paths with that count; the count does not depend
+// on the thread count.
+TEST_F(GuidingCli, TracePhotonsByPhotonCountIsTheMapOfItsPathCount) {
+    TempDir d;
+    const uint64_t target = 150000;
+    const std::string base = tool("trace-photons") + " " + scene() + " -q --seed 3 --max-depth 6";
+    run_ok(base + " --photons " + std::to_string(target) + " -t 2 -o " + d.file("m.h5"));
+    run_ok(base + " --photons " + std::to_string(target) + " -t 1 -o " + d.file("m1.h5"));
+    const PhotonMapFile m = read_photon_map(d.file("m.h5"));
+    // Photons per path on 32768 paths is within a few percent of the whole run's.
+    EXPECT_GT(m.photons.size(), target * 95 / 100);
+    EXPECT_LT(m.photons.size(), target * 105 / 100);
+    EXPECT_GT(m.photons.emitted_paths, 32768u);  // not the probe's count: the target needs more paths
+    EXPECT_EQ(read_photon_map(d.file("m1.h5")).photons.emitted_paths, m.photons.emitted_paths);
+    EXPECT_EQ(m.header.provenance.parameters.at("photons_target"), double(target));
+    run_ok(base + " --paths " + std::to_string(m.photons.emitted_paths) + " -t 2 -o " + d.file("p.h5"));
+    const PhotonMap p = read_photon_map(d.file("p.h5")).photons;
+    ASSERT_EQ(p.size(), m.photons.size());
+    EXPECT_EQ(std::memcmp(p.power.data(), m.photons.power.data(), p.size() * sizeof(RGB)), 0);
+    EXPECT_EQ(std::memcmp(p.position.data(), m.photons.position.data(), p.size() * sizeof(Vec3)), 0);
 }
 
 TEST_F(GuidingCli, PlaceAndFillCachesAreDeterministicForAnyThreadCount) {

@@ -97,6 +97,9 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         float p_x = 0, p_y = 0, cos_x = 0, cos_chain = 0, dist2 = 0;
     } last_y;
     Vec3 prev_hit_p = ray.o;  // the previous vertex (the camera's position for the first)
+    // The pixel's stratified numbers (if any) serve the first vertex that samples a non-Dirac lobe: behind
+    // a mirror or glass seen by the camera, that is the vertex whose direction decides the pixel's noise.
+    const FirstVertexSamples* stratified_numbers = first;
     // Hybrid caches: the vertices a cache served, each with what it needs to turn the radiance the path
     // gathers after it into the radiance its continuation received: L before the continuation's
     // contributions, the throughput after the vertex (luminance), and cos(theta_c) / p of the
@@ -186,15 +189,17 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         // will read then start loading before NEE's shadow ray.
 
         // Random numbers in a fixed order: the continuation's, then the light's.
-        // (At the first vertex the 2D numbers may come from the pixel's stratified sequence instead.)
-        const bool stratified = depth == 1 && first;
+        // (At the first non-Dirac vertex the 2D numbers may come from the pixel's stratified sequences.)
+        const FirstVertexSamples* strat = delta_only ? nullptr : stratified_numbers;
+        if (strat) stratified_numbers = nullptr;
+        const bool stratified = strat != nullptr;
         const float uc = rng.next_float();
-        const Vec2 u = stratified ? first->u_continue : Vec2{rng.next_float(), rng.next_float()};
+        const Vec2 u = stratified ? strat->u_continue : Vec2{rng.next_float(), rng.next_float()};
         LightSample ls;
         bool light_found = false;  // NEE only where the BSDF has a non-delta part
         if (use_nee && !delta_only) {
             const float u_sel = rng.next_float();
-            const Vec2 u_light = stratified ? first->u_light : Vec2{rng.next_float(), rng.next_float()};
+            const Vec2 u_light = stratified ? strat->u_light : Vec2{rng.next_float(), rng.next_float()};
             light_found = sample_light(scene, ref, u_sel, u_light, &ls) && ls.pdf > 0 && !is_black(ls.radiance);
         }
 

@@ -21,7 +21,11 @@ int main(int argc, char** argv) {
     // Read as a signed number: CLI11 converts "-5" into a uint64_t by wrapping it around (to 2^64 - 5),
     // which then overflowed the chunk count and produced an empty photon map with exit status 0.
     long long paths = (long long)opt.paths;
-    app.add_option("--paths", paths, "Photon paths to emit");
+    app.add_option("--paths", paths, "Photon paths to emit (default 250000)");
+    long long photons = 0;
+    app.add_option("--photons", photons,
+                   "Instead of --paths: emit as many paths as store about this many photons (photons per path "
+                   "measured on the first 32768 paths; at most 2^26 paths)");
     app.add_option("--max-depth", opt.max_depth, "Longest photon path in segments, -1 = unlimited");
     app.add_option("--rr-depth", opt.rr_depth, "Russian roulette from this many bounces on");
     app.add_option("--cutoff", opt.cutoff, "Stop a path below this fraction of its emitted power");
@@ -43,6 +47,13 @@ int main(int argc, char** argv) {
     try {
         if (paths <= 0) throw std::runtime_error("--paths must be positive, got " + std::to_string(paths));
         opt.paths = uint64_t(paths);
+        const bool by_photons = app.count("--photons") > 0;
+        if (by_photons && app.count("--paths"))
+            throw std::runtime_error("give --paths or --photons, not both");
+        if (by_photons && photons <= 0)
+            throw std::runtime_error("--photons must be positive, got " + std::to_string(photons));
+        if (by_photons && !path_range.empty())
+            throw std::runtime_error("--path-range needs --paths (the parts must agree on the paths in all)");
         if (!path_range.empty()) {
             uint64_t a = 0, b = 0;
             if (!iris::parse_range(path_range, &a, &b))
@@ -64,6 +75,7 @@ int main(int argc, char** argv) {
         iris::PhotonStats stats;
         // A scene without caustics skips guiding (place-caches); tracing its photons would only cost time.
         const bool skip = min_caustic_share > 0 && !iris::has_specular_surfaces(scene);
+        if (by_photons && !skip) opt.paths = iris::paths_for_photons(scene, opt, uint64_t(photons));
         iris::PhotonMap map = skip ? iris::PhotonMap{} : iris::trace_photons(scene, opt, &stats);
         const uint64_t total_paths = opt.paths;
         if (skip) opt.paths = 0;
@@ -79,6 +91,7 @@ int main(int argc, char** argv) {
                            // So that place-caches can decide to skip a scene from the header alone.
                            {"caustic_share", iris::caustic_power_share(map)},
                            {"min_caustic_share", min_caustic_share}};
+        if (by_photons) prov.parameters["photons_target"] = double(photons);
         if (opt.path_end > 0) {
             // A part: its range and the total it is a part of (merge-photons checks they tile 0:total).
             prov.parameters["path_begin"] = double(opt.path_begin);

@@ -3,8 +3,10 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 #include <thread>
 
@@ -130,6 +132,20 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
         for (const Light& l : scene.lights) stats->emitted_power += light_power(scene, l);
     }
     return photons;
+}
+
+uint64_t paths_for_photons(const Scene& scene, const PhotonOptions& opts, uint64_t photons) {
+    if (photons == 0) throw std::runtime_error("--photons must be positive");
+    PhotonOptions probe = opts;
+    probe.paths = kProbePaths;
+    probe.path_begin = probe.path_end = 0;
+    probe.quiet = true;
+    PhotonStats stats;
+    trace_photons(scene, probe, &stats);
+    // No photon stored by the probe: light mostly leaves the scene; the cap bounds the time.
+    if (stats.photons == 0) return kMaxPathsForPhotons;
+    const double paths = std::ceil(double(photons) * double(kProbePaths) / double(stats.photons));
+    return uint64_t(std::clamp(paths, double(kProbePaths), double(kMaxPathsForPhotons)));
 }
 
 }  // namespace iris

@@ -36,6 +36,15 @@ struct PhotonStats {
 // Traces opts.paths photon paths. Deterministic for a seed, whatever the thread count.
 PhotonMap trace_photons(const Scene& scene, const PhotonOptions& opts, PhotonStats* stats);
 
+// The paths to emit so that about `photons` photons are stored, from photons per path measured on a probe
+// of the first kProbePaths paths (the run then traces them again, as its own first paths), at most
+// kMaxPathsForPhotons. Deterministic for a seed, whatever the thread count. Photons per path vary by
+// orders of magnitude between scenes (a closed box keeps each photon for many bounces, an open scene
+// loses most at once), while what the caches need is photons near them.
+constexpr uint64_t kProbePaths = 32768;
+constexpr uint64_t kMaxPathsForPhotons = uint64_t(1) << 26;
+uint64_t paths_for_photons(const Scene& scene, const PhotonOptions& opts, uint64_t photons);
+
 // (has_specular_surfaces, libcommon/scene.h: without such a surface no photon is ever flagged caustic,
 // and the caustic share is 0 whatever the photons.)
 
