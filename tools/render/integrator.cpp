@@ -521,6 +521,18 @@ std::vector<PathSettings> guided_candidates(const PathSettings& guided, bool exp
     return c;
 }
 
+size_t pick_candidate(const std::vector<double>& ratio, const std::vector<int>& guide_vertices) {
+    const size_t n = ratio.size();
+    if (n < 2) return 0;
+    int deepest = 0;
+    for (size_t c = 1; c < n; ++c) deepest = std::max(deepest, guide_vertices[c]);
+    auto rank = [&](size_t c) { return guide_vertices[c] < deepest ? ratio[c] / kShallowMargin : ratio[c]; };
+    size_t best = 1;
+    for (size_t c = 2; c < n; ++c)
+        if (rank(c) > rank(best)) best = c;
+    return ratio[best] > kGuideMargin * ratio[0] ? best : 0;
+}
+
 std::string describe(const PathSettings& s) {
     std::string v = s.guide_vertices >= (1 << 29) ? "every vertex"
                     : s.guide_vertices == 1       ? "first vertex"
@@ -681,13 +693,9 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
             traced[c] = 1;
         }
     }
-    size_t best = 0;
-    if (n_cand > 1) {
-        best = 1;
-        for (size_t c = 2; c < n_cand; ++c)
-            if (best_ratio[c] > best_ratio[best]) best = c;
-        if (!(best_ratio[best] > kGuideMargin * best_ratio[0])) best = 0;
-    }
+    std::vector<int> guide_vertices(n_cand);
+    for (size_t c = 0; c < n_cand; ++c) guide_vertices[c] = d.candidates[c].settings.guide_vertices;
+    const size_t best = pick_candidate(best_ratio, guide_vertices);
     d.chosen = int(best);
     d.efficiency_ratio = best_ratio[best];
     d.light_trace = traced[best] != 0;

@@ -166,6 +166,14 @@ inline constexpr double kGuideMargin = 1.1;
 // light paths), with between these many light paths per pixel and pass.
 inline constexpr double kLightMargin = 1.05;
 inline constexpr double kMinLightPathsPerPixel = 1.0 / 16, kMaxLightPathsPerPixel = 4;
+// Guide fewer vertices than another candidate does only where the pilot predicts this much gain over it.
+// The pilot's variance estimates of guided candidates scatter by tens of percent between seeds at ~30
+// pilot samples, and where guiding fewer vertices loses it loses big, where it wins it wins little:
+// measured at equal time (30-s renders, 4 seeds, connections and light tracing in both) every vertex
+// was 1.74x the efficiency of the first vertex alone on the glass spheres, 0.97x on the metal ring, and
+// 2.2x on the window room (docs/benchmarks/window_room.md), while a 30-s pilot on the spheres once
+// predicted the first vertex 5 % ahead (BENCHMARKS.md, issue 25's targets).
+inline constexpr double kShallowMargin = 1.25;
 // Caustic connections only where the pilot predicts this much gain over the same setting without them.
 inline constexpr double kConnectMargin = 1.05;
 // The caustic class's share of the image above which it is light-traced whatever the pilot predicts.
@@ -192,6 +200,11 @@ std::string describe(const PathSettings& s);
 // Where `paths_per_vertex` > 0 (n of connections.h) and guiding and light tracing are weighed, each guided
 // candidate is also measured with caustic connections (always with the light tracer, whose paths fill
 // the pools), and is chosen with them only if they gain kConnectMargin.
+// decide_guiding's choice from each candidate's predicted efficiency over candidate 0 (`ratio`, 0 =
+// ruled out) and the vertices it guides: among candidates 1.., the best, where one that guides fewer
+// vertices than the deepest counts its ratio over kShallowMargin; that one if its plain ratio beats
+// candidate 0 by kGuideMargin, else 0.
+size_t pick_candidate(const std::vector<double>& ratio, const std::vector<int>& guide_vertices);
 class CausticTracer;
 GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width, int height, uint64_t seed,
                              const std::vector<PathSettings>& candidates, double budget_seconds,
