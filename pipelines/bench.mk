@@ -154,6 +154,7 @@ plots:
 # (Debian's /usr/bin/python3 has python3-matplotlib and NumPy; scripts/exr.py reads the images).
 #   make -f pipelines/bench.mk peers          # the spec glass box at 30/60/120 s, the plain box at 15/30/60 s, 2 repeats (~45 min)
 #   make -f pipelines/bench.mk peers PEER_REPEATS=3 PEER_REF_TIME=900
+#   make -f pipelines/bench.mk peers-glass    # the spec glass box alone at 30/60 s (~20 min): peers-glass.md
 # Blender is a benchmark-only dependency (~300 MB with its data): installed here when missing and run as
 # root, never by scripts/install-deps.sh, and no test needs it.
 # NAME:scene path. The spec boxes: glass_spheres.xml is the thesis's cbox_kugeln.xml (two glass spheres),
@@ -176,17 +177,24 @@ PEER_REF_TIME_glass_box ?= 420
 PEER_REF_TIME_mirror_boxes ?= 180
 BLENDER ?= blender
 PEER_RUNS := out/bench/peers
+PEER_REPORT ?= peers
 peer_path = $(word 2,$(subst :, ,$(1)))
 peer_ref_time = $(or $(PEER_REF_TIME_$(1)),$(PEER_REF_TIME))
 peer_ref = $(REF_DIR)/peer-$(1)-s$(PEER_SCALE)-$(call peer_ref_time,$(1))s.exr
-PEER_GIVEN := $(foreach v,PEER_SCENES PEER_BUDGETS PEER_REPEATS PEER_SCALE PEER_REF_TIME PIPELINE,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
-.PHONY: peers peer-blender
+PEER_GIVEN := $(foreach v,PEER_SCENES PEER_BUDGETS $(foreach s,$(PEER_SCENES),PEER_BUDGETS_$(call name_of,$(s))) PEER_REPEATS \
+  PEER_SCALE PEER_REF_TIME PEER_REPORT PIPELINE,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
+.PHONY: peers peers-glass peer-blender
 peer-blender:
 	@command -v $(BLENDER) >/dev/null || { [ "$$(id -u)" = 0 ] && apt-get install -y blender; } || \
 	  { echo "bench.mk: error: $(BLENDER) not found; install Debian's package: apt-get install blender" >&2; exit 1; }
 peers: $(foreach s,$(PEER_SCENES),$(PEER_RUNS)/$(call name_of,$(s))/results.json) $(PEER_RUNS)/filter_profile.txt
 	$(PYTHON) scripts/bench_peers.py report --runs $(PEER_RUNS) \
-	  --names $(foreach s,$(PEER_SCENES),$(call name_of,$(s))) -o docs/benchmarks/peers.md --assets docs/benchmarks/peers $(PEER_GIVEN)
+	  --names $(foreach s,$(PEER_SCENES),$(call name_of,$(s))) -o docs/benchmarks/$(PEER_REPORT).md \
+	  --assets docs/benchmarks/$(PEER_REPORT) $(PEER_GIVEN)
+# The spec glass box alone at 30/60 s, 2 repeats (~20 min with its reference): docs/benchmarks/peers-glass.md.
+peers-glass:
+	@$(MAKE) -f pipelines/bench.mk PEER_SCENES=glass_box:scenes/cbox/glass_spheres.xml PEER_BUDGETS_glass_box=30,60 \
+	  PEER_REPORT=peers-glass peers
 # Both renderers' pixel filter measured on a slanted emitter edge (and Cycles' with the first run's width 6 px).
 $(PEER_RUNS)/filter_profile.txt: scripts/filter_profile.py scripts/cycles_render.py peer-blender
 	@mkdir -p $(PEER_RUNS)

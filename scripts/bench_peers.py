@@ -273,17 +273,17 @@ def cmd_report(a):
          "unguided; a Cycles render of the same box with the matched filter (16 s of sampling) had 2.7 and "
          "relMSE 0.0019 instead of 0.18. The agreement tables below repeat this check on this run's "
          "images.", "",
-         "## The glass spheres (a second mismatch, found and fixed in this run)", "",
+         "## The glass spheres (a second mismatch, found and fixed in the run of 2026-12-04)", "",
          "cycles_render.py first built iris's analytic spheres as Cycles point-cloud points. Those are no "
-         "solid spheres for refraction in Cycles 3.4: on the glass box a first pass of this run (same "
+         "solid spheres for refraction in Cycles 3.4: on the glass box a first pass of that run (same "
          "reference, 2 repeats at 30/60/120 s) showed Cycles' floor caustic as a sharp image of the light "
          "where iris (guided and unguided alike) has a blurred one, 16 x 16-pixel regions at 0.5-2.2x the "
          "reference, channel means 1.015 / 1.000 / 1.009 of the reference in all four 60/120-s images, and "
          "a relMSE against the reference less its noise of 0.066 where Cycles' own noise (half the relMSE "
          "between its repeats) was 0.038. The spheres are now UV-sphere meshes of 256 x 128 segments with "
          "smooth normals (radial deviation <= 7.5e-5 R); a single-thread Cycles render with them had channel "
-         "means within 0.05 % of the reference. All figures below are from the second pass, with "
-         "mesh spheres.", ""]
+         "means within 0.05 % of the reference. Figures of that run's report came from a second "
+         "pass with mesh spheres, and every later run uses them.", ""]
     summary = []
     for name in a.names:
         r = results[name]
