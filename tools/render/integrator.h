@@ -191,6 +191,11 @@ std::vector<PathSettings> guided_candidates(const PathSettings& guided, bool exp
 // One line naming a candidate's settings, e.g. "every vertex, roulette below 0.1 from depth 5".
 std::string describe(const PathSettings& s);
 
+// decide_guiding's choice from each candidate's predicted efficiency over candidate 0 (`ratio`, 0 =
+// ruled out) and the vertices it guides: among candidates 1.., the best, where one that guides fewer
+// vertices than the deepest counts its ratio over kShallowMargin; that one if its plain ratio beats
+// candidate 0 by kGuideMargin, else 0.
+size_t pick_candidate(const std::vector<double>& ratio, const std::vector<int>& guide_vertices);
 // Runs the pilot (about budget_seconds, at least a minimum number of samples) for each candidate
 // (candidates[0] is the one the others are measured against: unguided in --mode auto) and, where
 // `light` is given, a light-tracing pilot of the caustic class; picks the combination predicted to be
@@ -200,11 +205,6 @@ std::string describe(const PathSettings& s);
 // Where `paths_per_vertex` > 0 (n of connections.h) and guiding and light tracing are weighed, each guided
 // candidate is also measured with caustic connections (always with the light tracer, whose paths fill
 // the pools), and is chosen with them only if they gain kConnectMargin.
-// decide_guiding's choice from each candidate's predicted efficiency over candidate 0 (`ratio`, 0 =
-// ruled out) and the vertices it guides: among candidates 1.., the best, where one that guides fewer
-// vertices than the deepest counts its ratio over kShallowMargin; that one if its plain ratio beats
-// candidate 0 by kGuideMargin, else 0.
-size_t pick_candidate(const std::vector<double>& ratio, const std::vector<int>& guide_vertices);
 class CausticTracer;
 GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width, int height, uint64_t seed,
                              const std::vector<PathSettings>& candidates, double budget_seconds,
