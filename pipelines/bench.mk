@@ -11,6 +11,7 @@
 #   make -f pipelines/bench.mk hybrid       # hybrid vs photon-only caches on the door scene (~25 min)
 #   make -f pipelines/bench.mk product      # product sampling with glossy lobes vs the map alone (~25 min)
 #   make -f pipelines/bench.mk sampler      # stratified vs independent pixel samples (~12 min)
+#   make -f pipelines/bench.mk guide-depth  # guiding the first vertex vs every vertex at equal time (~12 min)
 #
 # References are unguided long renders (the path tracer alone, independent of the guiding code), kept
 # outside git in $(REF_DIR) with a manifest (scene, fingerprint, resolution, spp, seconds, command); make
@@ -86,12 +87,17 @@ PARAM_SCENE ?= cbox_kugeln
 PARAM_BUDGET ?= 24
 PARAM_STUDY ?= PATHS=62500,125000,250000,500000;COUNT=1000,4000,16000;K=250,500,1000,2000;RES=8,16,32;SIGMA=0,0.75,1.5
 
-.PHONY: plots quick full references runs report params targets hybrid product sampler FORCE
+.PHONY: plots quick full references runs report params targets hybrid product sampler guide-depth FORCE
 # The pixel sampler (render --sampler sobol, the default) against independent samples, unguided and guided,
 # from the spread across 6 seeds at 64 spp on the ring, the glass spheres and the plain box. Report
 # docs/benchmarks/sampler.md (~12 min).
 sampler:
 	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench_sampler.py --out out/bench/sampler -o docs/benchmarks/sampler.md
+# How many vertices to guide: the first alone against every vertex at equal time (30 s, 3 seeds) on the glass
+# spheres, the ring and the window room; what render's kShallowMargin rests on. docs/benchmarks/guide-depth.md
+# (~12 min).
+guide-depth:
+	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench_guide_depth.py --out out/bench/guide-depth -o docs/benchmarks/guide-depth.md
 # Issue 25, part 1: hybrid caches (render --learn) against photon-only caches on the room lit through a
 # door, with scarce (25k paths) and default photons. Report docs/benchmarks/hybrid-door.md (~25 min).
 hybrid:

@@ -20,6 +20,7 @@ import argparse
 import json
 import os
 import re
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -132,6 +133,24 @@ def cmd_reference(a):
         f.write("command %s\n" % " ".join(cmd))
     os.replace(a.output + ".manifest.tmp", a.output + ".manifest")
     print("reference %s: %s spp, %.0f s" % (a.output, meta.get("iris:spp"), seconds))
+
+
+def seed_spread(images, seconds):
+    """Noise from the spread across seeds. images: key -> luminance images of one scene, one per seed (every
+    key estimates the same image); seconds: key -> wall times. Per key (relative variance of one render,
+    median seconds, efficiency = 1 / (relative variance x seconds)); the relative variance is the variance
+    across the seeds of each pixel over (mean^2 + 0.01), the mean over every render of the scene, averaged
+    over the pixels. A render's own sample variance cannot stand in for it: stratified samples are not
+    independent."""
+    import numpy as np
+    mean = np.mean([im for ims in images.values() for im in ims], axis=0)
+    denom = mean * mean + 0.01
+    result = {}
+    for key, ims in images.items():
+        rv = float(np.mean(np.var(np.array(ims), axis=0, ddof=1) / denom))
+        t = statistics.median(seconds[key])
+        result[key] = (rv, t, 1.0 / (rv * t))
+    return result
 
 
 def preprocess(scene, out, pipeline_vars):

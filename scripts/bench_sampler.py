@@ -13,10 +13,7 @@ Efficiency = 1 / (relative variance x seconds), seconds = the median wall time o
 import argparse
 import datetime
 import os
-import statistics
 import sys
-
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import bench  # noqa: E402
@@ -75,13 +72,7 @@ def main():
                         cmd += ["--atlas", os.path.join(out, "atlas.h5")]
                     seconds.setdefault((mode, sampler), []).append(bench.run(cmd)[0])
                     images.setdefault((mode, sampler), []).append(exr.rgb(path).mean(axis=2))
-        mean = np.mean([im for ims in images.values() for im in ims], axis=0)
-        denom = mean * mean + 0.01
-        result = {}
-        for key, ims in images.items():
-            rv = float(np.mean(np.var(np.array(ims), axis=0, ddof=1) / denom))
-            t = statistics.median(seconds[key])
-            result[key] = (rv, t, 1.0 / (rv * t))
+        result = bench.seed_spread(images, seconds)
         for mode, _ in modes:
             ind, sob = result[(mode, "independent")], result[(mode, "sobol")]
             rows.append((name, mode, ind, sob))
