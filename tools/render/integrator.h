@@ -169,11 +169,11 @@ inline constexpr double kMinLightPathsPerPixel = 1.0 / 16, kMaxLightPathsPerPixe
 // Guide fewer vertices than another candidate does only where the pilot predicts this much gain over it.
 // The pilot's variance estimates of guided candidates scatter by tens of percent between seeds at ~30
 // pilot samples, and where guiding fewer vertices loses it loses big, where it wins it wins little:
-// measured at equal time (30-s renders, 4 seeds, connections and light tracing in both) every vertex
-// was 1.74x the efficiency of the first vertex alone on the glass spheres, 0.97x on the metal ring, and
-// 0.89x on the window room (3 seeds, no connections; there the pilot predicts the first vertex 1.6x
-// ahead and still takes it), while a 30-s pilot on the spheres once predicted the first vertex 5 %
-// ahead (BENCHMARKS.md, issue 25's targets).
+// measured at equal time (docs/benchmarks/guide-depth.md, `make -f pipelines/bench.mk guide-depth`)
+// every vertex was 1.73x the efficiency of the first vertex alone on the glass spheres, 0.92x on the
+// metal ring, and 0.85x on the window room (there the pilot predicts the first vertex 1.6x ahead and
+// still takes it), while a 30-s pilot on the spheres once predicted the first vertex 5 % ahead
+// (BENCHMARKS.md, issue 25's targets).
 inline constexpr double kShallowMargin = 1.25;
 // Caustic connections only where the pilot predicts this much gain over the same setting without them.
 inline constexpr double kConnectMargin = 1.05;
