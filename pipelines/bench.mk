@@ -12,6 +12,7 @@
 #   make -f pipelines/bench.mk product      # product sampling with glossy lobes vs the map alone (~25 min)
 #   make -f pipelines/bench.mk sampler      # stratified vs independent pixel samples (~12 min)
 #   make -f pipelines/bench.mk guide-depth  # guiding the first vertex vs every vertex at equal time (~12 min)
+#   make -f pipelines/bench.mk connect-choice  # guiding every vertex without vs with caustic connections (~20 min)
 #
 # References are unguided long renders (the path tracer alone, independent of the guiding code), kept
 # outside git in $(REF_DIR) with a manifest (scene, fingerprint, resolution, spp, seconds, command); make
@@ -87,7 +88,7 @@ PARAM_SCENE ?= cbox_kugeln
 PARAM_BUDGET ?= 24
 PARAM_STUDY ?= PATHS=62500,125000,250000,500000;COUNT=1000,4000,16000;K=250,500,1000,2000;RES=8,16,32;SIGMA=0,0.75,1.5
 
-.PHONY: plots quick full references runs report params targets hybrid product sampler guide-depth FORCE
+.PHONY: plots quick full references runs report params targets hybrid product sampler guide-depth connect-choice FORCE
 # The pixel sampler (render --sampler sobol, the default) against independent samples, unguided and guided,
 # from the spread across 6 seeds at 64 spp on the ring, the glass spheres and the plain box. Report
 # docs/benchmarks/sampler.md (~12 min).
@@ -97,7 +98,12 @@ sampler:
 # spheres, the ring and the window room; what render's kShallowMargin rests on. docs/benchmarks/guide-depth.md
 # (~12 min).
 guide-depth:
-	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench_guide_depth.py --out out/bench/guide-depth -o docs/benchmarks/guide-depth.md
+	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench_choice.py --choice depth --out out/bench/guide-depth -o docs/benchmarks/guide-depth.md
+# Caustic connections or not, when every vertex is guided: without against with at equal time (30 s, 4 seeds)
+# on the egg, the mirror boxes, the glass spheres and the ring; what render's kConnectMargin rests on.
+# docs/benchmarks/connect-choice.md (~20 min).
+connect-choice:
+	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench_choice.py --choice connect --seeds 4 --out out/bench/connect-choice -o docs/benchmarks/connect-choice.md
 # Issue 25, part 1: hybrid caches (render --learn) against photon-only caches on the room lit through a
 # door, with scarce (25k paths) and default photons. Report docs/benchmarks/hybrid-door.md (~25 min).
 hybrid:
