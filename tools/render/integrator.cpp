@@ -533,6 +533,10 @@ size_t pick_candidate(const std::vector<double>& ratio, const std::vector<int>& 
     return ratio[best] > kGuideMargin * ratio[0] ? best : 0;
 }
 
+bool take_connections(double with, double without, bool without_traced) {
+    return without_traced ? with * kConnectTolerance >= without : with > kConnectMargin * without;
+}
+
 std::string describe(const PathSettings& s) {
     std::string v = s.guide_vertices >= (1 << 29) ? "every vertex"
                     : s.guide_vertices == 1       ? "first vertex"
@@ -684,9 +688,14 @@ GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width
     for (size_t c = 0; c < n_cand; ++c) {
         best_ratio[c] = ratio(nt_off[c]);
         if (d.candidates[c].settings.connect) {
-            // Only with the light tracer, and only by a margin over the same candidate without them.
+            // Only with the light tracer; where taken, in place of the same candidate without them.
             const size_t twin = c - (n_cand - 1) / 2;
-            best_ratio[c] = ratio(nt_on[c]) > kConnectMargin * best_ratio[twin] ? ratio(nt_on[c]) : 0.0;
+            if (take_connections(ratio(nt_on[c]), best_ratio[twin], traced[twin] != 0)) {
+                best_ratio[c] = ratio(nt_on[c]);
+                best_ratio[twin] = 0.0;
+            } else {
+                best_ratio[c] = 0.0;
+            }
             traced[c] = 1;
         } else if (light && (d.light_share_decides || ratio(nt_on[c]) > kLightMargin * best_ratio[c])) {
             best_ratio[c] = ratio(nt_on[c]);

@@ -175,8 +175,9 @@ inline constexpr double kMinLightPathsPerPixel = 1.0 / 16, kMaxLightPathsPerPixe
 // still takes it), while a 30-s pilot on the spheres once predicted the first vertex 5 % ahead
 // (BENCHMARKS.md, issue 25's targets).
 inline constexpr double kShallowMargin = 1.25;
-// Caustic connections only where the pilot predicts this much gain over the same setting without them.
+// Caustic connections, weighed against the same setting without them (take_connections).
 inline constexpr double kConnectMargin = 1.05;
+inline constexpr double kConnectTolerance = 1.25;
 // The caustic class's share of the image above which it is light-traced whatever the pilot predicts.
 inline constexpr double kMinCausticShare = 0.001;
 
@@ -197,6 +198,17 @@ std::string describe(const PathSettings& s);
 // vertices than the deepest counts its ratio over kShallowMargin; that one if its plain ratio beats
 // candidate 0 by kGuideMargin, else 0.
 size_t pick_candidate(const std::vector<double>& ratio, const std::vector<int>& guide_vertices);
+// Whether a guided candidate takes caustic connections, from the pilot's predicted efficiency over
+// candidate 0 with them (`with`, always with the light tracer) and without them (`without`, light-traced
+// or not: `without_traced`). Where the light tracer runs either way, connections add a shadow ray per
+// vertex, and they lose little where they lose and win big where they win: measured at equal time
+// (docs/benchmarks/connect-choice.md, `make -f pipelines/bench.mk connect-choice`, 30 s, 4 seeds) 1.43x on
+// the mirror boxes, 2.12x on the glass spheres, 1.10x on the egg and 0.93x on the ring; on the egg what they
+// take out is fireflies (lamps seen through glass after a diffuse bounce), which ~30 pilot samples per
+// pixel rarely see, and a 60-s render without them had 2x the relMSE of one with them. So there they
+// are taken unless the pilot predicts them kConnectTolerance behind. Where the light tracer would not run
+// without them, they must pay for it too, and are taken only kConnectMargin ahead.
+bool take_connections(double with, double without, bool without_traced);
 // Runs the pilot (about budget_seconds, at least a minimum number of samples) for each candidate
 // (candidates[0] is the one the others are measured against: unguided in --mode auto) and, where
 // `light` is given, a light-tracing pilot of the caustic class; picks the combination predicted to be
@@ -205,7 +217,7 @@ size_t pick_candidate(const std::vector<double>& ratio, const std::vector<int>& 
 // camera paths' remaining noise and cost), within [1/16, 4], unless `light_paths_per_pixel` > 0 fixes it.
 // Where `paths_per_vertex` > 0 (n of connections.h) and guiding and light tracing are weighed, each guided
 // candidate is also measured with caustic connections (always with the light tracer, whose paths fill
-// the pools), and is chosen with them only if they gain kConnectMargin.
+// the pools), and is chosen with them as take_connections says.
 class CausticTracer;
 GuideDecision decide_guiding(const Scene& scene, const Camera& camera, int width, int height, uint64_t seed,
                              const std::vector<PathSettings>& candidates, double budget_seconds,
