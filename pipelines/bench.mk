@@ -100,7 +100,7 @@ sampler:
 guide-depth:
 	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench_choice.py --choice depth --out out/bench/guide-depth -o docs/benchmarks/guide-depth.md
 # Caustic connections or not, when every vertex is guided: without against with at equal time (30 s, 4 seeds)
-# on the egg, the mirror boxes, the glass spheres and the ring; what render's kConnectMargin rests on.
+# on the egg, the mirror boxes, the glass spheres and the ring; what render's take_connections rests on.
 # docs/benchmarks/connect-choice.md (~20 min).
 connect-choice:
 	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench_choice.py --choice connect --seeds 4 --out out/bench/connect-choice -o docs/benchmarks/connect-choice.md
