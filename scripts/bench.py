@@ -48,6 +48,14 @@ def scaled_resolution(scene, scale):
     return max(1, round(w * scale)), max(1, round(h * scale))
 
 
+def write_text(path, text):
+    """Writes a file whole or not at all (a temporary beside it, renamed): an interrupted benchmark never
+    leaves a half-written report, results file or manifest."""
+    with open(path + ".tmp", "w") as f:
+        f.write(text)
+    os.replace(path + ".tmp", path)
+
+
 def run(cmd, **kw):
     """Runs a command; returns its wall seconds. Raises with the command's stderr on failure."""
     t0 = time.monotonic()
@@ -122,16 +130,15 @@ def cmd_reference(a):
                "--resolution", "%dx%d" % (w, h), "--seed", "1000003", "--variance", "--sampler", "independent", "-q"]
     seconds, _, _ = run(cmd)
     meta = metadata(a.output)
-    with open(a.output + ".manifest.tmp", "w") as f:
-        f.write("scene %s\n" % a.scene)
-        f.write("scene_fingerprint %s\n" % meta.get("iris:scene_fingerprint", "?"))
-        f.write("resolution %dx%d\n" % (w, h))
-        f.write("kind %s\n" % kind)
-        f.write("spp %s\n" % meta.get("iris:spp", "?"))
-        f.write("seconds %.1f\n" % seconds)
-        f.write("version %s\n" % meta.get("iris:version", "?"))
-        f.write("command %s\n" % " ".join(cmd))
-    os.replace(a.output + ".manifest.tmp", a.output + ".manifest")
+    write_text(a.output + ".manifest",
+               "scene %s\n" % a.scene
+               + "scene_fingerprint %s\n" % meta.get("iris:scene_fingerprint", "?")
+               + "resolution %dx%d\n" % (w, h)
+               + "kind %s\n" % kind
+               + "spp %s\n" % meta.get("iris:spp", "?")
+               + "seconds %.1f\n" % seconds
+               + "version %s\n" % meta.get("iris:version", "?")
+               + "command %s\n" % " ".join(cmd))
     print("reference %s: %s spp, %.0f s" % (a.output, meta.get("iris:spp"), seconds))
 
 
@@ -275,9 +282,7 @@ def cmd_runs(a):
         info["table_bytes"] = int(table.group(1))
         info["caches"] = caches
         info["map_resolution"] = res
-    with open(os.path.join(a.out, "results.json.tmp"), "w") as f:
-        json.dump(info, f, indent=1)
-    os.replace(os.path.join(a.out, "results.json.tmp"), os.path.join(a.out, "results.json"))
+    write_text(os.path.join(a.out, "results.json"), json.dumps(info, indent=1))
 
 
 def cmd_params(a):
@@ -340,9 +345,7 @@ def cmd_params(a):
                             base["relmse_trimmed"] * base["total"] / (x["relmse_trimmed"] * x["total"])))
         lines.append("")
     os.makedirs(os.path.dirname(a.output) or ".", exist_ok=True)
-    with open(a.output + ".tmp", "w") as f:
-        f.write("\n".join(lines) + "\n")
-    os.replace(a.output + ".tmp", a.output)
+    write_text(a.output, "\n".join(lines) + "\n")
     print("wrote %s" % a.output)
 
 
@@ -597,9 +600,7 @@ def cmd_report(a):
                    % (name, m, b, eff, eff_trim, "%.2f" % eff_clean if eff_clean is not None else "n/a", cost,
                       100 * share, decision.split(":")[0] if decision else ""))
     out = lines[:3] + [""] + top + [""] + lines[3:]
-    with open(a.output + ".tmp", "w") as f:
-        f.write("\n".join(out).rstrip() + "\n")
-    os.replace(a.output + ".tmp", a.output)
+    write_text(a.output, "\n".join(out).rstrip() + "\n")
     print("wrote %s" % a.output)
 
 

@@ -101,10 +101,7 @@ def main():
              "|---|---|---|---|---|"]
     for name, shared, ra, rb in rows:
         lines.append("| `%s` | `%s` | %.4g | %.4g | %.2f |" % (name, shared, ra[0], rb[0], rb[2] / ra[2]))
-    tmp = a.output + ".tmp"
-    with open(tmp, "w") as f:
-        f.write("\n".join(lines) + "\n")
-    os.replace(tmp, a.output)
+    bench.write_text(a.output, "\n".join(lines) + "\n")
     print("wrote " + a.output)
 
 

@@ -98,10 +98,7 @@ def main():
                   "| scene | independent | sobol |", "|---|---|---|"]
         for u, g in pairs:
             lines.append("| `%s` | %.2f | %.2f |" % (u[0], g[2][2] / u[2][2], g[3][2] / u[3][2]))
-    tmp = a.output + ".tmp"
-    with open(tmp, "w") as f:
-        f.write("\n".join(lines) + "\n")
-    os.replace(tmp, a.output)
+    bench.write_text(a.output, "\n".join(lines) + "\n")
     print("wrote " + a.output)
 
 
