@@ -14,6 +14,7 @@
 // float inputs, and double keeps d^2 / cos and 1 - cos(theta_max) accurate for tiny or far emitters.
 #include "libcommon/lights.h"
 
+#include <algorithm>
 #include <cfloat>
 #include <stdexcept>
 #include <string>
@@ -32,6 +33,7 @@ struct Vec3d {
 inline Vec3d to_d(Vec3 v) { return {v.x, v.y, v.z}; }
 inline Vec3 to_f(Vec3d v) { return Vec3(float(v.x), float(v.y), float(v.z)); }
 inline Vec3d sub(Vec3d a, Vec3d b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline Vec3d add(Vec3d a, Vec3d b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
 inline double dot_d(Vec3d a, Vec3d b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 inline Vec3d scale(Vec3d a, double s) { return {a.x * s, a.y * s, a.z * s}; }
 inline Vec3d cross_d(Vec3d a, Vec3d b) {
@@ -159,17 +161,116 @@ double scene_radius(const Scene& scene) {
     return 0.5 * std::sqrt(dot_d(ext, ext));
 }
 
+// Mesh triangles that subtend at least kMinSolidAngle steradians from the reference point are sampled
+// uniformly in solid angle (Arvo 1995), the rest uniformly by area. By area the density per steradian,
+// d^2 / (A cos(theta_light)), changes across a triangle by a relative amount of the order of its angular
+// size: nothing for a far triangle (where area sampling is also cheaper), but near a light (a wall
+// beside a ceiling lamp, a lamp's own housing) the 1/d^2 of the nearest points makes NEE's fireflies.
+// Past kMaxSolidAngle (a point almost on the triangle's plane, facing it) Arvo's construction loses
+// precision, and area sampling is used again. Both bounds are decided from the same TriangleView in
+// sample_light and light_pdf, so the densities still agree bit for bit.
+constexpr double kMinSolidAngle = 0.01;   // sr
+constexpr double kMaxSolidAngle = 6.2;    // sr (a hemisphere is 2 pi = 6.28)
+
+// Triangle `tri` of a mesh light as seen from ref: whether it is sampled in solid angle, and then the
+// unit directions to its vertices and the solid angle they span.
+struct TriangleView {
+    bool spherical = false;
+    Vec3d a, b, c;           // unit directions ref -> vertices 0, 1, 2
+    double solid_angle = 0;  // sr
+};
+
+TriangleView view_triangle(const Mesh& m, uint32_t tri, Vec3 n, Vec3 ref) {
+    TriangleView v;
+    const uint32_t* idx = &m.indices[3 * size_t(tri)];
+    const Vec3d r = to_d(ref);
+    const Vec3d d0 = sub(to_d(m.positions[idx[0]]), r), d1 = sub(to_d(m.positions[idx[1]]), r),
+                d2 = sub(to_d(m.positions[idx[2]]), r);
+    // Emitters radiate on their normal's side: ref must be strictly in front of the plane (otherwise
+    // the area branch rejects every point of the triangle, as before).
+    if (!(dot_d(to_d(n), d0) < 0)) return v;
+    const double l0 = dot_d(d0, d0), l1 = dot_d(d1, d1), l2 = dot_d(d2, d2);
+    if (!(l0 > 0 && l1 > 0 && l2 > 0) || !std::isfinite(l0 + l1 + l2)) return v;
+    v.a = scale(d0, 1.0 / std::sqrt(l0));
+    v.b = scale(d1, 1.0 / std::sqrt(l1));
+    v.c = scale(d2, 1.0 / std::sqrt(l2));
+    // Van Oosterom and Strackee 1983: tan(Omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a).
+    const double triple = std::abs(dot_d(v.a, cross_d(v.b, v.c)));
+    const double den = 1.0 + dot_d(v.a, v.b) + dot_d(v.b, v.c) + dot_d(v.c, v.a);
+    v.solid_angle = 2.0 * std::atan2(triple, den);
+    v.spherical = v.solid_angle >= kMinSolidAngle && v.solid_angle <= kMaxSolidAngle;
+    return v;
+}
+
+// Arvo 1995, "Stratified sampling of spherical triangles": the direction *w uniform in the spherical
+// triangle (a, b, c). u.x picks the sub-triangle (a, b, c') of area u.x Omega, whose vertex c' on the arc
+// a-c follows from the sub-triangle's angle sum; u.y then picks a point on the arc b-c' so that the
+// density is uniform. False only where rounding leaves no direction (a sliver at the bounds' edge).
+bool sample_spherical_triangle(const TriangleView& v, Vec2 u, Vec3d* w) {
+    // The angle alpha at vertex a: between the great circles a-b and a-c, i.e. their planes' normals.
+    const Vec3d nab = cross_d(v.a, v.b), nac = cross_d(v.a, v.c);
+    const double len2 = dot_d(nab, nab) * dot_d(nac, nac);
+    if (!(len2 > 0)) return false;
+    const double cos_alpha = std::clamp(dot_d(nab, nac) / std::sqrt(len2), -1.0, 1.0);
+    const double sin_alpha = std::sqrt(std::max(0.0, 1.0 - cos_alpha * cos_alpha));
+    if (!(sin_alpha > 0)) return false;
+    // Sub-triangle area A' = u.x Omega; with phi = A' - alpha, the cosine of the arc a-c' is q.
+    const double phi = double(u.x) * v.solid_angle - std::acos(cos_alpha);
+    const double s = std::sin(phi), t = std::cos(phi);
+    const double k1 = t - cos_alpha;
+    const double k2 = s + sin_alpha * dot_d(v.a, v.b);
+    const double q = std::clamp(((k2 * t - k1 * s) * cos_alpha - k2) / ((k2 * s + k1 * t) * sin_alpha), -1.0, 1.0);
+    const Vec3d c_perp = sub(v.c, scale(v.a, dot_d(v.c, v.a)));  // the arc a-c's tangent at a
+    const double cp2 = dot_d(c_perp, c_perp);
+    if (!(cp2 > 0)) return false;
+    const Vec3d c1 = add(scale(v.a, q), scale(c_perp, std::sqrt(1.0 - q * q) / std::sqrt(cp2)));
+    // Uniform on the arc b-c' in the sense that makes the whole density uniform: z = cos of the arc from b.
+    const double z = std::clamp(1.0 - double(u.y) * (1.0 - dot_d(c1, v.b)), -1.0, 1.0);
+    const Vec3d b_perp = sub(c1, scale(v.b, dot_d(c1, v.b)));
+    const double bp2 = dot_d(b_perp, b_perp);
+    if (!(bp2 > 0)) {  // c' = b to double precision: the arc has no length
+        *w = v.b;
+        return true;
+    }
+    *w = add(scale(v.b, z), scale(b_perp, std::sqrt(std::max(0.0, 1.0 - z * z)) / std::sqrt(bp2)));
+    return std::isfinite(w->x + w->y + w->z);
+}
+
+// Density per steradian (without light selection) of a triangle sampled in solid angle: its share of
+// the light's area (the triangle's selection probability) over its solid angle.
+float spherical_density(const Light& l, uint32_t tri, const TriangleView& v) {
+    return float(double(l.triangles.pmf(tri)) / v.solid_angle);
+}
+
 bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2 u, LightSample* s) {
     if (l.triangles.empty() || !(l.area > 0)) return false;
     const Mesh& m = scene.meshes[l.shape];
     uint32_t tri = l.triangles.sample(u_tri);
+    const Vec3 n = l.triangle_normals[tri];
+    if (n.x == 0 && n.y == 0 && n.z == 0) return false;  // unreachable: zero-area triangles have weight 0
+    const TriangleView view = view_triangle(m, tri, n, ref);
+    if (view.spherical) {
+        Vec3d w;
+        if (!sample_spherical_triangle(view, u, &w)) return false;
+        // The point where w meets the triangle's plane (ref is in front of it, so both dots are < 0).
+        const Vec3d nd = to_d(n);
+        const double cos_w = dot_d(nd, w);
+        const double dist = dot_d(nd, sub(to_d(m.positions[m.indices[3 * size_t(tri)]]), to_d(ref))) / cos_w;
+        if (!(cos_w < 0) || !(dist > 0) || !std::isfinite(dist)) return false;
+        s->p = to_f(add(to_d(ref), scale(w, dist)));
+        s->n = n;
+        s->wi = to_f(w);
+        s->dist = float(dist);
+        s->radiance = l.radiance;
+        s->pdf = spherical_density(l, tri, view);
+        s->prim = tri;
+        return s->pdf > 0;
+    }
     const uint32_t* idx = &m.indices[3 * size_t(tri)];
     Vec3 p0 = m.positions[idx[0]], p1 = m.positions[idx[1]], p2 = m.positions[idx[2]];
     Vec2 b = sample_uniform_triangle(u);
     // Same interpolation as Scene::intersect, so a sampled point and a hit point agree.
     Vec3 p = p0 * (1.0f - b.x - b.y) + p1 * b.x + p2 * b.y;
-    const Vec3 n = l.triangle_normals[tri];
-    if (n.x == 0 && n.y == 0 && n.z == 0) return false;  // unreachable: zero-area triangles have weight 0
     Seen seen = see_area_point(ref, p, n);
     // Triangles are chosen in proportion to area and sampled uniformly, so the area density is
     // 1/total area on every triangle.
@@ -181,7 +282,17 @@ bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2
     s->dist = seen.dist;
     s->radiance = l.radiance;
     s->pdf = pdf;
+    s->prim = tri;
     return true;
+}
+
+// Conditional density (per steradian, without selection) of the mesh sampler at point p, normal n, of
+// triangle tri.
+float mesh_density(const Scene& scene, const Light& l, uint32_t tri, Vec3 ref, Vec3 p, Vec3 n) {
+    if (l.triangles.empty() || tri >= l.triangle_normals.size()) return 0.0f;
+    const TriangleView view = view_triangle(scene.meshes[l.shape], tri, l.triangle_normals[tri], ref);
+    if (view.spherical) return spherical_density(l, tri, view);
+    return area_density(see_area_point(ref, p, n), l.area);
 }
 
 // Conditional density (per steradian, without selection) of the sphere sampler at point p, normal n.
@@ -554,17 +665,14 @@ bool sample_light(const Scene& scene, Vec3 ref, float u_sel, Vec2 u, LightSample
     return true;
 }
 
-float light_pdf(const Scene& scene, uint32_t light, Vec3 ref, Vec3 p, Vec3 n, Vec3 wi) {
+float light_pdf(const Scene& scene, uint32_t light, uint32_t prim, Vec3 ref, Vec3 p, Vec3 n, Vec3 wi) {
     if (light >= scene.lights.size()) return 0.0f;
     float pmf = light_selection_pmf(scene, light);
     if (!(pmf > 0)) return 0.0f;
     const Light& l = scene.lights[light];
     float pdf = 0;
     switch (l.type) {
-        case LightType::AreaMesh:
-            if (l.triangles.empty()) return 0.0f;
-            pdf = area_density(see_area_point(ref, p, n), l.area);
-            break;
+        case LightType::AreaMesh: pdf = mesh_density(scene, l, prim, ref, p, n); break;
         case LightType::AreaSphere: pdf = sphere_density(scene.spheres[l.shape], l, ref, p, n); break;
         case LightType::Point:
         case LightType::Spot:

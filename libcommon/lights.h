@@ -78,6 +78,7 @@ struct LightSample {
                       // for point lights, the selection probability (a delta in direction)
     bool delta = false;
     uint32_t light = 0;
+    uint32_t prim = 0;  // mesh lights: the triangle the point lies on (light_pdf's `prim`)
 };
 
 // Emitted radiance of an area/constant light leaving its surface point with normal n in direction w
@@ -101,16 +102,18 @@ void lights_prepare(Scene& scene);
 // light: no light with power, the point faces away from ref (emitters radiate on their normal side
 // only), coincides with ref, or its density would overflow a float. Never yields NaN or Inf.
 // Sphere lights seen from outside are sampled uniformly in the cone they subtend; from inside (or on
-// the surface) uniformly by area. For the environment, p and n are zero and dist is infinite.
+// the surface) uniformly by area. Mesh lights: a triangle in proportion to its area, then a point on it
+// uniformly in solid angle where it subtends at least 0.01 sr (near the light), else uniformly by area. For the environment, p and n are zero and dist is infinite.
 bool sample_light(const Scene& scene, Vec3 ref, float u_sel, Vec2 u, LightSample* s);
 
 // Density per steradian (including selection) with which sample_light would produce the point `p`
 // with normal `n` (the emitter's geometric normal, flipped as Mesh/Sphere::flip_normals says) on light
-// `light`, seen from `ref` (for MIS when a BSDF-sampled ray hits a light). It equals the pdf that
+// `light`, seen from `ref` (for MIS when a BSDF-sampled ray hits a light); for a mesh light `prim` is
+// the triangle p lies on (SurfaceHit::prim; ignored for other lights). It equals the pdf that
 // sample_light reports for that point, bit for bit, and is 0 wherever sample_light would reject.
 // For the environment, p and n are ignored and wi is the direction. For a point light (which no ray
 // can hit) it returns the selection probability, the mass of the delta, as LightSample::pdf does.
-float light_pdf(const Scene& scene, uint32_t light, Vec3 ref, Vec3 p, Vec3 n, Vec3 wi);
+float light_pdf(const Scene& scene, uint32_t light, uint32_t prim, Vec3 ref, Vec3 p, Vec3 n, Vec3 wi);
 
 // Probability that sample_light picks `light`.
 float light_selection_pmf(const Scene& scene, uint32_t light);

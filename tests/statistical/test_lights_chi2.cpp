@@ -21,7 +21,7 @@
 namespace iris {
 namespace {
 
-constexpr int kLightChi2Tests = 9;
+constexpr int kLightChi2Tests = 10;
 
 Mesh quad_mesh(Vec3 c, Vec3 e1, Vec3 e2) {
     Mesh m;
@@ -85,7 +85,7 @@ double direction_pdf(const Scene& scene, Vec3 ref, Dir w) {
                 if (u < 0 || v < 0 || u + v > 1 || th <= 0) continue;
                 Vec3 n = normalize(cross(p1 - p0, p2 - p0));
                 if (m.flip_normals) n = -n;
-                sum += light_pdf(scene, li, ref, at(th), n, wf);
+                sum += light_pdf(scene, li, t, ref, at(th), n, wf);
             }
         } else if (l.type == LightType::AreaSphere) {
             const Sphere& sp = scene.spheres[l.shape];
@@ -100,10 +100,10 @@ double direction_pdf(const Scene& scene, Vec3 ref, Dir w) {
                 Vec3 p = at(t);
                 Vec3 n = normalize(p - sp.center);
                 if (sp.flip_normals) n = -n;
-                sum += light_pdf(scene, li, ref, p, n, wf);
+                sum += light_pdf(scene, li, 0, ref, p, n, wf);
             }
         } else if (l.type == LightType::Constant || l.type == LightType::Envmap) {
-            sum += light_pdf(scene, li, ref, Vec3(0), Vec3(0), wf);
+            sum += light_pdf(scene, li, 0, ref, Vec3(0), Vec3(0), wf);
         }
         // Point, spot and directional lights: deltas, excluded from the continuous density.
     }
@@ -203,6 +203,23 @@ TEST(LightChi2, QuadMeshLight) {
     add_mesh_light(s, quad_mesh({-1, -0.5f, 1}, {0, 2, 0}, {2.5f, 0, 0}), RGB(1, 1, 1));  // normal -z
     lights_prepare(s);
     run_plain(s, Vec3(0.2f, 0.1f, 0.3f), Quadrature::FixedFine);
+}
+
+TEST(LightChi2, TessellatedQuadNearAndFarTriangles) {
+    // A 4 x 4 quad of 8 x 8 cells seen from 0.15 above one corner: the triangles nearby subtend more
+    // than 0.01 sr and are sampled in solid angle, the far ones by area, in one light.
+    Scene s;
+    Mesh m;
+    for (int j = 0; j <= 8; ++j)
+        for (int i = 0; i <= 8; ++i) m.positions.push_back(Vec3(-2.0f + 0.5f * i, -2.0f + 0.5f * j, 0.0f));
+    for (uint32_t j = 0; j < 8; ++j)
+        for (uint32_t i = 0; i < 8; ++i) {
+            const uint32_t a = j * 9 + i;
+            m.indices.insert(m.indices.end(), {a, a + 1, a + 10, a, a + 10, a + 9});  // normal +z
+        }
+    add_mesh_light(s, std::move(m), RGB(1, 1, 1));
+    lights_prepare(s);
+    run_plain(s, Vec3(-1.3f, -1.4f, 0.15f), Quadrature::FixedFine);
 }
 
 TEST(LightChi2, SphereFromOutsideLargeAngle) {

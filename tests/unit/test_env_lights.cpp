@@ -84,7 +84,7 @@ TEST(EnvLights, EnvmapPdfMatchesSampleLightAndIntegratesToOne) {
         ASSERT_TRUE(sample_light(s, Vec3(0.1f, 0.2f, 0.3f), rng.next_float(), {rng.next_float(), rng.next_float()}, &ls));
         EXPECT_FALSE(ls.delta);
         EXPECT_TRUE(std::isinf(ls.dist));
-        EXPECT_EQ(ls.pdf, light_pdf(s, 0, Vec3(0.1f, 0.2f, 0.3f), Vec3(0), Vec3(0), ls.wi));
+        EXPECT_EQ(ls.pdf, light_pdf(s, 0, 0, Vec3(0.1f, 0.2f, 0.3f), Vec3(0), Vec3(0), ls.wi));
         const RGB le = light_emitted(env, Vec3(0), -ls.wi);
         EXPECT_EQ(ls.radiance.r, le.r);
         EXPECT_EQ(ls.radiance.b, le.b);
@@ -121,7 +121,7 @@ TEST(EnvLights, BlackMapsAndRowsGiveNoNaN) {
     LightSample ls;
     EXPECT_FALSE(sample_light(s, Vec3(0), 0.5f, {0.5f, 0.5f}, &ls));
     EXPECT_EQ(envmap_pdf(*s.lights[0].envmap, Vec3(0, 0, 1)), 0.0f);
-    EXPECT_EQ(light_pdf(s, 0, Vec3(0), Vec3(0), Vec3(0), Vec3(0, 0, 1)), 0.0f);
+    EXPECT_EQ(light_pdf(s, 0, 0, Vec3(0), Vec3(0), Vec3(0), Vec3(0, 0, 1)), 0.0f);
     EXPECT_EQ(luminance(light_power(s, s.lights[0])), 0.0f);
     EmissionSample e;
     EXPECT_FALSE(sample_emission(s, 0.5f, {0.5f, 0.5f}, {0.5f, 0.5f}, &e));
@@ -180,7 +180,7 @@ TEST(EnvLights, SpotFalloffIntensityAndPower) {
     EXPECT_FLOAT_EQ(ls.radiance.r, 3.0f / 4.0f);
     EXPECT_EQ(ls.pdf, 1.0f);
     EXPECT_FLOAT_EQ(ls.wi.z, 1.0f);
-    EXPECT_EQ(light_pdf(s, 0, Vec3(0), ls.p, ls.n, ls.wi), 1.0f);
+    EXPECT_EQ(light_pdf(s, 0, 0, Vec3(0), ls.p, ls.n, ls.wi), 1.0f);
     EXPECT_EQ(light_emitted(l, Vec3(0, 0, 1), Vec3(0, 0, 1)).r, 0.0f);
     // Outside the cone (45 degrees off the axis): nothing.
     EXPECT_FALSE(sample_light(s, Vec3(2, 0, 0), 0.5f, {0.5f, 0.5f}, &ls));

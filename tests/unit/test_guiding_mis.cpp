@@ -177,7 +177,7 @@ void check_scene(const GuidedScene& s, int vertices, int samples_per_vertex, Tal
                             ++tally->nee_paths;
                             const float w_nee = power_heuristic(ls.pdf, pm);
                             const float w_hit =
-                                power_heuristic(pm, light_pdf(scene, uint32_t(lh.light), v.ref, lh.p, lh.ng, ls.wi));
+                                power_heuristic(pm, light_pdf(scene, uint32_t(lh.light), lh.prim, v.ref, lh.p, lh.ng, ls.wi));
                             tally->check(double(w_nee) + double(w_hit), "NEE-sampled path", mode);
                         }
                     }
@@ -206,7 +206,7 @@ void check_scene(const GuidedScene& s, int vertices, int samples_per_vertex, Tal
                 SurfaceHit lh;
                 if (!(p_sampled > 0) || !hits_emitter(scene, v, d, &lh)) continue;
                 ++tally->hit_paths;
-                const float pl = light_pdf(scene, uint32_t(lh.light), v.ref, lh.p, lh.ng, d);
+                const float pl = light_pdf(scene, uint32_t(lh.light), lh.prim, v.ref, lh.p, lh.ng, d);
                 const float w_hit = use_nee ? power_heuristic(p_sampled, pl) : 1.0f;
                 const float w_nee = use_nee ? power_heuristic(pl, p_mix_eval(d)) : 0.0f;
                 tally->check(double(w_hit) + double(w_nee), "continuation-sampled path", mode);

@@ -5,6 +5,8 @@
 // and the BVH, which these tests do not need).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <optional>
 #include <vector>
@@ -114,7 +116,7 @@ int check_pdf_consistency(const Scene& scene, Vec3 ref, int n = 40) {
                 expect_finite(s);
                 EXPECT_GT(s.pdf, 0.0f);
                 EXPECT_NEAR(length(s.wi), 1.0f, 1e-5f);
-                float pdf = light_pdf(scene, s.light, ref, s.p, s.n, s.wi);
+                float pdf = light_pdf(scene, s.light, s.prim, ref, s.p, s.n, s.wi);
                 EXPECT_EQ(pdf, s.pdf) << "light " << s.light << " u_sel " << u_sel << " u " << a << "," << b;
             }
     return ok;
@@ -200,10 +202,11 @@ TEST(Lights, MeshPdfMatchesSample) {
     int ok = check_pdf_consistency(s, Vec3(0.3f, 0.2f, 1.5f));
     EXPECT_GT(ok, 1000);
 
-    // The sampled points lie on the mesh, with the normal of their triangle, and the pdf is the area
-    // density converted to solid angle.
+    // From far away (every triangle under 0.01 sr: area sampling) the sampled points lie on the mesh,
+    // with the normal of their triangle, and the pdf is the area density converted to solid angle.
     Rng rng(13, 14);
-    Vec3 ref(0.3f, 0.2f, 1.5f);
+    Vec3 ref(0.3f, 0.2f, 40.0f);
+    EXPECT_GT(check_pdf_consistency(s, ref), 1000);
     for (int i = 0; i < 10000; ++i) {
         LightSample ls;
         if (!sample_light(s, ref, rng.next_float(), {rng.next_float(), rng.next_float()}, &ls)) continue;
@@ -219,6 +222,59 @@ TEST(Lights, MeshPdfMatchesSample) {
     }
 }
 
+// Solid angle of the spherical triangle (a, b, c) by Girard's theorem (the angle excess), in double: a
+// different formula from the renderer's (Van Oosterom and Strackee).
+double girard_solid_angle(Vec3 ref, Vec3 p0, Vec3 p1, Vec3 p2) {
+    auto unit = [&](Vec3 p) {
+        double x = double(p.x) - ref.x, y = double(p.y) - ref.y, z = double(p.z) - ref.z, l = std::sqrt(x * x + y * y + z * z);
+        return std::array<double, 3>{x / l, y / l, z / l};
+    };
+    auto cross3 = [](std::array<double, 3> a, std::array<double, 3> b) {
+        return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+    };
+    // The angle at vertex a between the arcs to b and to c.
+    auto corner = [&](std::array<double, 3> a, std::array<double, 3> b, std::array<double, 3> c) {
+        auto n1 = cross3(a, b), n2 = cross3(a, c);
+        double d = n1[0] * n2[0] + n1[1] * n2[1] + n1[2] * n2[2];
+        double l = std::sqrt((n1[0] * n1[0] + n1[1] * n1[1] + n1[2] * n1[2]) * (n2[0] * n2[0] + n2[1] * n2[1] + n2[2] * n2[2]));
+        return std::acos(std::clamp(d / l, -1.0, 1.0));
+    };
+    auto a = unit(p0), b = unit(p1), c = unit(p2);
+    return corner(a, b, c) + corner(b, c, a) + corner(c, a, b) - kPi;
+}
+
+TEST(Lights, NearTrianglesAreSampledInSolidAngle) {
+    // Near a quad light (each triangle subtends ~0.3-1.5 sr) the points lie on the quad, uniformly in
+    // solid angle: pdf = (the triangle's share of the area) / (its solid angle), per triangle.
+    Scene s;
+    add_mesh_light(s, quad_mesh({-1, -1, 0}, {2, 0, 0}, {0, 2, 0}), RGB(2, 2, 2));  // normal +z
+    lights_prepare(s);
+    const Mesh& m = s.meshes[0];
+    Rng rng(21, 22);
+    for (Vec3 ref : {Vec3(0.3f, 0.2f, 0.5f), Vec3(0.9f, -0.9f, 0.05f), Vec3(3.0f, 0.0f, 0.4f)}) {
+        EXPECT_GT(check_pdf_consistency(s, ref), 1000);
+        double omega[2];
+        for (uint32_t t = 0; t < 2; ++t)
+            omega[t] = girard_solid_angle(ref, m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 1]],
+                                          m.positions[m.indices[3 * t + 2]]);
+        int counts[2] = {0, 0};
+        for (int i = 0; i < 20000; ++i) {
+            LightSample ls;
+            ASSERT_TRUE(sample_light(s, ref, rng.next_float(), {rng.next_float(), rng.next_float()}, &ls));
+            ASSERT_LT(ls.prim, 2u);
+            ++counts[ls.prim];
+            EXPECT_NEAR(ls.p.z, 0.0f, 1e-6f);
+            EXPECT_LE(std::abs(ls.p.x), 1.0f + 1e-5f);
+            EXPECT_LE(std::abs(ls.p.y), 1.0f + 1e-5f);
+            EXPECT_NEAR(dot(ls.wi, normalize(ls.p - ref)), 1.0f, 1e-5f);
+            EXPECT_NEAR(ls.dist, length(ls.p - ref), 1e-5f * ls.dist);
+            EXPECT_NEAR(ls.pdf, 0.5 / omega[ls.prim], 1e-5 * ls.pdf) << "triangle " << ls.prim;
+        }
+        EXPECT_GT(counts[0], 9000);  // each triangle is half the area
+        EXPECT_GT(counts[1], 9000);
+    }
+}
+
 TEST(Lights, MeshEmitsOnNormalSideOnly) {
     Scene s;
     add_mesh_light(s, quad_mesh({-1, -1, 0}, {2, 0, 0}, {0, 2, 0}), RGB(1, 1, 1));  // normal +z
@@ -228,7 +284,7 @@ TEST(Lights, MeshEmitsOnNormalSideOnly) {
     EXPECT_EQ(light_emitted(l, {0, 0, 1}, normalize(Vec3(0.1f, 0, -1))).r, 0.0f);
     Vec3 below(0.1f, 0.2f, -1.0f);
     EXPECT_EQ(check_pdf_consistency(s, below, 10), 0);
-    EXPECT_EQ(light_pdf(s, 0, below, Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1)), 0.0f);
+    EXPECT_EQ(light_pdf(s, 0, 0, below, Vec3(0, 0, 0), Vec3(0, 0, 1), Vec3(0, 0, 1)), 0.0f);
     // Flipped: emits downwards.
     s.meshes[0].flip_normals = true;
     lights_prepare(s);
@@ -248,7 +304,7 @@ TEST(Lights, MeshNoNanAtDegenerateReferencePoints) {
                      Vec3(1e30f, 0, 1e30f), Vec3(0, 0, 1e20f), Vec3(0, 0, 3e38f)}) {
         check_pdf_consistency(s, ref, 16);
         for (Vec3 p : {Vec3(0, 0, 0), Vec3(0.5f, 0.5f, 0), Vec3(-1, -1, 0)}) {
-            float pdf = light_pdf(s, 0, ref, p, Vec3(0, 0, 1), Vec3(0, 0, -1));
+            float pdf = light_pdf(s, 0, 0, ref, p, Vec3(0, 0, 1), Vec3(0, 0, -1));
             EXPECT_TRUE(std::isfinite(pdf));
             EXPECT_GE(pdf, 0.0f);
         }
@@ -269,7 +325,7 @@ TEST(Lights, MeshNoNanAtDegenerateReferencePoints) {
         ASSERT_TRUE(sample_light(d, {0, 1, 1}, u, {0.5f, 0.5f}, &ls));
         EXPECT_EQ(ls.light, 1u);
     }
-    EXPECT_EQ(light_pdf(d, 0, {0, 1, 1}, {0.5f, 0, 0}, {0, 0, 1}, {0, -1, 0}), 0.0f);
+    EXPECT_EQ(light_pdf(d, 0, 0, {0, 1, 1}, {0.5f, 0, 0}, {0, 0, 1}, {0, -1, 0}), 0.0f);
 }
 
 TEST(Lights, SphereFromOutsideMatchesAndLiesOnVisibleCap) {
@@ -320,7 +376,7 @@ TEST(Lights, SphereFromInsideUsesAreaSampling) {
     // Not flipped: from inside nothing is visible.
     s.spheres[0].flip_normals = false;
     EXPECT_EQ(check_pdf_consistency(s, ref, 10), 0);
-    EXPECT_EQ(light_pdf(s, 0, ref, Vec3(2, 0, 0), Vec3(1, 0, 0), normalize(Vec3(2, 0, 0) - ref)), 0.0f);
+    EXPECT_EQ(light_pdf(s, 0, 0, ref, Vec3(2, 0, 0), Vec3(1, 0, 0), normalize(Vec3(2, 0, 0) - ref)), 0.0f);
 }
 
 TEST(Lights, SphereNoNanAtSurfaceCentreAndFarAway) {
@@ -343,7 +399,7 @@ TEST(Lights, SphereNoNanAtSurfaceCentreAndFarAway) {
         for (uint32_t li = 0; li < 2; ++li) {
             Vec3 cc = s.spheres[li].center;
             Vec3 p = cc + Vec3(0, r, 0);
-            float pdf = light_pdf(s, li, ref, p, Vec3(0, 1, 0), normalize(p - ref));
+            float pdf = light_pdf(s, li, 0, ref, p, Vec3(0, 1, 0), normalize(p - ref));
             EXPECT_TRUE(std::isfinite(pdf));
             EXPECT_GE(pdf, 0.0f);
         }
@@ -371,7 +427,7 @@ TEST(Lights, TinySpherePdfIsAccurate) {
         LightSample ls;
         ASSERT_TRUE(sample_light(s, ref, 0.5f, {0.25f, 0.75f}, &ls));
         EXPECT_NEAR(ls.pdf, expected, 1e-6 * expected) << "r = " << k.r;
-        EXPECT_EQ(light_pdf(s, 0, ref, ls.p, ls.n, ls.wi), ls.pdf);
+        EXPECT_EQ(light_pdf(s, 0, ls.prim, ref, ls.p, ls.n, ls.wi), ls.pdf);
         // Samples spread over the whole visible disk: the rim direction is at theta_max (checked where
         // float directions can resolve the disk).
         if (rr / d2 < 1e-6L) continue;
@@ -404,7 +460,7 @@ TEST(Lights, PointLight) {
     EXPECT_NEAR(ls.radiance.r, 8.0f, 1e-5f);  // I / d^2 with d = 1
     ASSERT_TRUE(sample_light(s, Vec3(0, 0, 0), 0.0f, {0.5f, 0.5f}, &ls));
     EXPECT_NEAR(ls.radiance.g, 1.0f, 1e-6f);  // 4 / 2^2
-    EXPECT_EQ(light_pdf(s, pt, ref, ls.p, ls.n, ls.wi), pmf);
+    EXPECT_EQ(light_pdf(s, pt, ls.prim, ref, ls.p, ls.n, ls.wi), pmf);
     EXPECT_EQ(light_emitted(s.lights[pt], {0, 0, 1}, {0, 0, 1}).r, 0.0f);
     // At the light itself: no sample, no NaN.
     EXPECT_FALSE(sample_light(s, Vec3(0, 0, 2), 0.0f, {0.5f, 0.5f}, &ls));
@@ -425,7 +481,7 @@ TEST(Lights, ConstantEnvironment) {
         LightSample ls;
         Vec3 ref(0.1f, 0.2f, 0.5f);
         if (!sample_light(s, ref, rng.next_float(), {rng.next_float(), rng.next_float()}, &ls)) continue;
-        EXPECT_EQ(light_pdf(s, ls.light, ref, ls.p, ls.n, ls.wi), ls.pdf);
+        EXPECT_EQ(light_pdf(s, ls.light, ls.prim, ref, ls.p, ls.n, ls.wi), ls.pdf);
         if (ls.light != env) continue;
         ++env_samples;
         EXPECT_EQ(ls.dist, kInf);
@@ -435,7 +491,7 @@ TEST(Lights, ConstantEnvironment) {
         EXPECT_EQ(ls.radiance.r, 0.5f);
     }
     EXPECT_GT(env_samples, 100);
-    EXPECT_FLOAT_EQ(light_pdf(s, env, {}, {}, {}, Vec3(0, 0, -1)), pmf * kInv4Pi);
+    EXPECT_FLOAT_EQ(light_pdf(s, env, 0, {}, {}, {}, Vec3(0, 0, -1)), pmf * kInv4Pi);
     for (Vec3 w : {Vec3(0, 0, 1), Vec3(0, 0, -1), Vec3(1, 0, 0)}) {
         EXPECT_EQ(light_emitted(s.lights[env], Vec3(0), w).g, 0.5f);
     }
@@ -461,7 +517,7 @@ TEST(Lights, MixturePdfIncludesSelection) {
     lights_prepare(none);
     LightSample ls;
     EXPECT_FALSE(sample_light(none, {0, 0, 0}, 0.5f, {0.5f, 0.5f}, &ls));
-    EXPECT_EQ(light_pdf(none, 0, {}, {}, {}, {}), 0.0f);
+    EXPECT_EQ(light_pdf(none, 0, 0, {}, {}, {}, {}), 0.0f);
 }
 
 }  // namespace

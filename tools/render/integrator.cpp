@@ -126,10 +126,10 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         writer.prefetch(c, texel);
         recorded[n_recorded++] = {c, texel, cos_c / p, b, L};
     };
-    // Emission le that the path reached at its depth-th vertex from light `light_index` (p, n: the point
-    // and normal on an emitter; zero for the environment). Paths do not end at lights (an emitter may also
+    // Emission le that the path reached at its depth-th vertex from light `light_index` (p, n, prim: the
+    // point, normal and triangle on an emitter; zero for the environment). Paths do not end at lights (an emitter may also
     // reflect, DESIGN 4.8).
-    auto add_emission = [&](RGB le, int depth, int light_index, Vec3 p, Vec3 n) {
+    auto add_emission = [&](RGB le, int depth, int light_index, Vec3 p, Vec3 n, uint32_t prim) {
         if (caustic_chain && depth >= 3) {
             // The caustic class of caustics.h (at least one Dirac vertex; MIS weight 1): the light
             // tracer's where it runs.
@@ -138,7 +138,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         } else {
             float w = 1.0f;
             if (!prev_delta && use_nee)
-                w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(light_index), prev_p, p, n, ray.d));
+                w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(light_index), prim, prev_p, p, n, ray.d));
             else if (prev_delta && ps.connect && last_y.joinable)
                 w = connection_path_weight(ps.paths_per_vertex, light_emit_density(scene, uint32_t(light_index)),
                                            last_y.cos_chain, last_y.cos_x, last_y.dist2, last_y.p_x, last_y.p_y);
@@ -150,7 +150,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         if (!scene.intersect(ray, &hit)) {
             if (scene.environment_light >= 0) {
                 const Light& env = scene.lights[scene.environment_light];
-                add_emission(light_emitted(env, Vec3(0), -ray.d), depth, scene.environment_light, Vec3(0), Vec3(0));
+                add_emission(light_emitted(env, Vec3(0), -ray.d), depth, scene.environment_light, Vec3(0), Vec3(0), 0);
             }
             break;
         }
@@ -171,7 +171,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         }
         if (hit.light >= 0) {
             const RGB le = light_emitted(scene.lights[hit.light], hit.ng, wi_world);
-            if (!is_black(le)) add_emission(le, depth, hit.light, hit.p, hit.ng);
+            if (!is_black(le)) add_emission(le, depth, hit.light, hit.p, hit.ng, hit.prim);
         }
         if (ps.max_depth >= 0 && depth >= ps.max_depth) break;
 
