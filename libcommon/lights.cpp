@@ -161,16 +161,16 @@ double scene_radius(const Scene& scene) {
     return 0.5 * std::sqrt(dot_d(ext, ext));
 }
 
-// Mesh triangles that subtend at least kMinSolidAngle steradians from the reference point are sampled
-// uniformly in solid angle (Arvo 1995), the rest uniformly by area. By area the density per steradian,
-// d^2 / (A cos(theta_light)), changes across a triangle by a relative amount of the order of its angular
-// size: nothing for a far triangle (where area sampling is also cheaper), but near a light (a wall
-// beside a ceiling lamp, a lamp's own housing) the 1/d^2 of the nearest points makes NEE's fireflies.
-// Past kMaxSolidAngle (a point almost on the triangle's plane, facing it) Arvo's construction loses
-// precision, and area sampling is used again. Both bounds are decided from the same TriangleView in
-// sample_light and light_pdf, so the densities still agree bit for bit.
-constexpr double kMinSolidAngle = 0.01;   // sr
-constexpr double kMaxSolidAngle = 6.2;    // sr (a hemisphere is 2 pi = 6.28)
+// Mesh triangles that subtend at least kSolidAngleSampling steradians from the reference point are
+// sampled uniformly in solid angle (Arvo 1995), the rest uniformly by area. By area the density per
+// steradian, d^2 / (A cos(theta_light)), changes across a triangle by a relative amount of the order of
+// its angular size: nothing for a far triangle (where area sampling is also cheaper), but near a large
+// light (the walls below a ceiling panel, a lamp's own housing) the 1/d^2 of the nearest points makes
+// NEE's fireflies. Past kMaxSolidAngle (a point almost on the triangle's plane, facing it) Arvo's
+// construction loses precision, and area sampling is used again. Both bounds are decided from the
+// same TriangleView in sample_light and light_pdf, so the densities still agree bit for bit.
+constexpr double kMinSolidAngle = kSolidAngleSampling;
+constexpr double kMaxSolidAngle = 6.2;  // sr (a hemisphere is 2 pi = 6.28)
 
 // Triangle `tri` of a mesh light as seen from ref: whether it is sampled in solid angle, and then the
 // unit directions to its vertices and the solid angle they span.
@@ -180,8 +180,16 @@ struct TriangleView {
     double solid_angle = 0;  // sr
 };
 
-TriangleView view_triangle(const Mesh& m, uint32_t tri, Vec3 n, Vec3 ref) {
+TriangleView view_triangle(const Light& l, const Mesh& m, uint32_t tri, Vec3 ref) {
     TriangleView v;
+    const Vec3 n = l.triangle_normals[tri];
+    // Far away (the usual case): a triangle of area A whose points all lie at least D - r from ref
+    // (D: distance to its centroid, r: its centroid's largest distance to a vertex) subtends at most
+    // A / (D - r)^2, under kMinSolidAngle once D exceeds r + sqrt(A / kMinSolidAngle), the precomputed
+    // `near` radius. One dot product instead of the solid angle's square roots and arctangent.
+    const Light::TriangleNear& b = l.triangle_near[tri];
+    const Vec3 dc = b.centre - ref;
+    if (dot(dc, dc) > b.near2) return v;
     const uint32_t* idx = &m.indices[3 * size_t(tri)];
     const Vec3d r = to_d(ref);
     const Vec3d d0 = sub(to_d(m.positions[idx[0]]), r), d1 = sub(to_d(m.positions[idx[1]]), r),
@@ -197,7 +205,9 @@ TriangleView view_triangle(const Mesh& m, uint32_t tri, Vec3 n, Vec3 ref) {
     // Van Oosterom and Strackee 1983: tan(Omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a).
     const double triple = std::abs(dot_d(v.a, cross_d(v.b, v.c)));
     const double den = 1.0 + dot_d(v.a, v.b) + dot_d(v.b, v.c) + dot_d(v.c, v.a);
-    v.solid_angle = 2.0 * std::atan2(triple, den);
+    // In float: past the far test the angle is at least ~0.01 sr, where float's 1e-7 is plenty (and its
+    // arctangent is several times cheaper than double's).
+    v.solid_angle = 2.0 * double(std::atan2(float(triple), float(den)));
     v.spherical = v.solid_angle >= kMinSolidAngle && v.solid_angle <= kMaxSolidAngle;
     return v;
 }
@@ -214,9 +224,11 @@ bool sample_spherical_triangle(const TriangleView& v, Vec2 u, Vec3d* w) {
     const double cos_alpha = std::clamp(dot_d(nab, nac) / std::sqrt(len2), -1.0, 1.0);
     const double sin_alpha = std::sqrt(std::max(0.0, 1.0 - cos_alpha * cos_alpha));
     if (!(sin_alpha > 0)) return false;
-    // Sub-triangle area A' = u.x Omega; with phi = A' - alpha, the cosine of the arc a-c' is q.
-    const double phi = double(u.x) * v.solid_angle - std::acos(cos_alpha);
-    const double s = std::sin(phi), t = std::cos(phi);
+    // Sub-triangle area A' = u.x Omega; with phi = A' - alpha, the cosine of the arc a-c' is q. sin and
+    // cos of phi by the difference formulas: one sincos, no arccosine.
+    const float area_u = float(double(u.x) * v.solid_angle);
+    const float sin_a = std::sin(area_u), cos_a = std::cos(area_u);
+    const double s = sin_a * cos_alpha - cos_a * sin_alpha, t = cos_a * cos_alpha + sin_a * sin_alpha;
     const double k1 = t - cos_alpha;
     const double k2 = s + sin_alpha * dot_d(v.a, v.b);
     const double q = std::clamp(((k2 * t - k1 * s) * cos_alpha - k2) / ((k2 * s + k1 * t) * sin_alpha), -1.0, 1.0);
@@ -248,7 +260,7 @@ bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2
     uint32_t tri = l.triangles.sample(u_tri);
     const Vec3 n = l.triangle_normals[tri];
     if (n.x == 0 && n.y == 0 && n.z == 0) return false;  // unreachable: zero-area triangles have weight 0
-    const TriangleView view = view_triangle(m, tri, n, ref);
+    const TriangleView view = view_triangle(l, m, tri, ref);
     if (view.spherical) {
         Vec3d w;
         if (!sample_spherical_triangle(view, u, &w)) return false;
@@ -290,7 +302,7 @@ bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2
 // triangle tri.
 float mesh_density(const Scene& scene, const Light& l, uint32_t tri, Vec3 ref, Vec3 p, Vec3 n) {
     if (l.triangles.empty() || tri >= l.triangle_normals.size()) return 0.0f;
-    const TriangleView view = view_triangle(scene.meshes[l.shape], tri, l.triangle_normals[tri], ref);
+    const TriangleView view = view_triangle(l, scene.meshes[l.shape], tri, ref);
     if (view.spherical) return spherical_density(l, tri, view);
     return area_density(see_area_point(ref, p, n), l.area);
 }
@@ -545,6 +557,17 @@ void lights_prepare(Scene& scene) {
                     if (!(len > 0)) continue;
                     const Vec3 n = to_f(scale(c, 1.0 / len));
                     l.triangle_normals[t] = m.flip_normals ? -n : n;
+                }
+                l.triangle_near.assign(m.triangle_count(), Light::TriangleNear{});
+                for (uint32_t t = 0; t < m.triangle_count(); ++t) {
+                    const uint32_t* idx = &m.indices[3 * size_t(t)];
+                    const Vec3d p[3] = {to_d(m.positions[idx[0]]), to_d(m.positions[idx[1]]), to_d(m.positions[idx[2]])};
+                    const Vec3d centre = scale(add(add(p[0], p[1]), p[2]), 1.0 / 3.0);
+                    double r2 = 0;
+                    for (const Vec3d& q : p) r2 = std::max(r2, dot_d(sub(q, centre), sub(q, centre)));
+                    // Rounded up by 1 %, so that float rounding of the test can only call a far triangle near.
+                    const double near = 1.01 * (std::sqrt(r2) + std::sqrt(double(areas[t]) / kMinSolidAngle));
+                    l.triangle_near[t] = {to_f(centre), std::isfinite(near) ? float(near * near) : kInf};
                 }
                 l.area = float(l.triangles.total());
                 break;
