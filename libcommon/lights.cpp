@@ -180,16 +180,26 @@ struct TriangleView {
     double solid_angle = 0;  // sr
 };
 
-TriangleView view_triangle(const Light& l, const Mesh& m, uint32_t tri, Vec3 ref) {
-    TriangleView v;
-    const Vec3 n = l.triangle_normals[tri];
-    // Far away (the usual case): a triangle of area A whose points all lie at least D - r from ref
-    // (D: distance to its centroid, r: its centroid's largest distance to a vertex) subtends at most
-    // A / (D - r)^2, under kMinSolidAngle once D exceeds r + sqrt(A / kMinSolidAngle), the precomputed
-    // `near` radius. One dot product instead of the solid angle's square roots and arctangent.
+// Whether triangle `tri` may subtend kMinSolidAngle or more from ref: a cheap bound that sends far
+// triangles (the usual case) to area sampling without view_triangle's square roots and arctangent. Every
+// point q of the triangle lies at least d = max(D - r, h) from ref (D: distance to the centroid, r: the
+// centroid's largest distance to a vertex, h: ref's height above the triangle's plane) and sees ref at
+// cos = h / |q - ref|, so the solid angle, the integral of cos / |q - ref|^2 over the area A, is at most
+// A h / d^3. (Rounding at the bound may tip a triangle either way; sample_light and light_pdf decide
+// alike, so the densities still agree.)
+inline bool maybe_near(const Light& l, uint32_t tri, Vec3 ref) {
     const Light::TriangleNear& b = l.triangle_near[tri];
-    const Vec3 dc = b.centre - ref;
-    if (dot(dc, dc) > b.near2) return v;
+    const Vec3 dc = ref - b.centre;
+    const float h = dot(l.triangle_normals[tri], dc);
+    if (!(h > 0)) return false;                 // behind the emitting side: area sampling rejects it
+    if (h * h > b.area_over_min) return false;  // d >= h, so A h / d^3 <= A / h^2 < kMinSolidAngle
+    const float d = std::max(std::sqrt(dot(dc, dc)) - b.radius, h);
+    return h * b.area_over_min >= d * d * d;
+}
+
+// The exact view, for triangles that maybe_near lets through.
+TriangleView view_triangle(const Mesh& m, uint32_t tri, Vec3 n, Vec3 ref) {
+    TriangleView v;
     const uint32_t* idx = &m.indices[3 * size_t(tri)];
     const Vec3d r = to_d(ref);
     const Vec3d d0 = sub(to_d(m.positions[idx[0]]), r), d1 = sub(to_d(m.positions[idx[1]]), r),
@@ -260,7 +270,7 @@ bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2
     uint32_t tri = l.triangles.sample(u_tri);
     const Vec3 n = l.triangle_normals[tri];
     if (n.x == 0 && n.y == 0 && n.z == 0) return false;  // unreachable: zero-area triangles have weight 0
-    const TriangleView view = view_triangle(l, m, tri, ref);
+    const TriangleView view = maybe_near(l, tri, ref) ? view_triangle(m, tri, n, ref) : TriangleView{};
     if (view.spherical) {
         Vec3d w;
         if (!sample_spherical_triangle(view, u, &w)) return false;
@@ -302,8 +312,10 @@ bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2
 // triangle tri.
 float mesh_density(const Scene& scene, const Light& l, uint32_t tri, Vec3 ref, Vec3 p, Vec3 n) {
     if (l.triangles.empty() || tri >= l.triangle_normals.size()) return 0.0f;
-    const TriangleView view = view_triangle(l, scene.meshes[l.shape], tri, ref);
-    if (view.spherical) return spherical_density(l, tri, view);
+    if (maybe_near(l, tri, ref)) {
+        const TriangleView view = view_triangle(scene.meshes[l.shape], tri, l.triangle_normals[tri], ref);
+        if (view.spherical) return spherical_density(l, tri, view);
+    }
     return area_density(see_area_point(ref, p, n), l.area);
 }
 
@@ -565,9 +577,7 @@ void lights_prepare(Scene& scene) {
                     const Vec3d centre = scale(add(add(p[0], p[1]), p[2]), 1.0 / 3.0);
                     double r2 = 0;
                     for (const Vec3d& q : p) r2 = std::max(r2, dot_d(sub(q, centre), sub(q, centre)));
-                    // Rounded up by 1 %, so that float rounding of the test can only call a far triangle near.
-                    const double near = 1.01 * (std::sqrt(r2) + std::sqrt(double(areas[t]) / kMinSolidAngle));
-                    l.triangle_near[t] = {to_f(centre), std::isfinite(near) ? float(near * near) : kInf};
+                    l.triangle_near[t] = {to_f(centre), float(std::sqrt(r2)), float(double(areas[t]) / kMinSolidAngle)};
                 }
                 l.area = float(l.triangles.total());
                 break;

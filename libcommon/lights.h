@@ -64,12 +64,13 @@ struct Light {
     // once by lights_prepare from the double cross product instead of once per light sample (the same
     // value sample_mesh computed each time, so the images do not change).
     std::vector<Vec3> triangle_normals;
-    // AreaMesh: per triangle its centroid and the squared distance from it beyond which the triangle
-    // subtends less than the solid-angle sampler's threshold: the cheap test that keeps far triangles on
-    // area sampling (lights.cpp, view_triangle).
+    // AreaMesh: per triangle what the cheap test needs that keeps far triangles on area sampling
+    // (lights.cpp, view_triangle): its centroid, the centroid's largest distance to a vertex (world
+    // units), and its area over the solid-angle sampler's threshold (world units squared per sr).
     struct TriangleNear {
         Vec3 centre;
-        float near2 = 0;  // world units squared
+        float radius = 0;
+        float area_over_min = 0;
     };
     std::vector<TriangleNear> triangle_near;
     float sampling_weight = 1; // Mitsuba's `samplingWeight` (multiplies the selection weight)

@@ -13,6 +13,7 @@
 #   make -f pipelines/bench.mk sampler      # stratified vs independent pixel samples (~12 min)
 #   make -f pipelines/bench.mk guide-depth  # guiding the first vertex vs every vertex at equal time (~12 min)
 #   make -f pipelines/bench.mk connect-choice  # guiding every vertex without vs with caustic connections (~20 min)
+#   make -f pipelines/bench.mk ab OLD_BIN=/tmp/old/build/bin WHAT='...' AB_REPORT=x  # two builds of render (~10 min)
 #
 # References are unguided long renders (the path tracer alone, independent of the guiding code), kept
 # outside git in $(REF_DIR) with a manifest (scene, fingerprint, resolution, spp, seconds, command); make
@@ -88,7 +89,7 @@ PARAM_SCENE ?= cbox_kugeln
 PARAM_BUDGET ?= 24
 PARAM_STUDY ?= PATHS=62500,125000,250000,500000;COUNT=1000,4000,16000;K=250,500,1000,2000;RES=8,16,32;SIGMA=0,0.75,1.5
 
-.PHONY: plots quick full references runs report params targets hybrid product sampler guide-depth connect-choice FORCE
+.PHONY: plots quick full references runs report params targets hybrid product sampler guide-depth connect-choice ab FORCE
 # The pixel sampler (render --sampler sobol, the default) against independent samples, unguided and guided,
 # from the spread across 6 seeds at 64 spp on the ring, the glass spheres and the plain box. Report
 # docs/benchmarks/sampler.md (~12 min).
@@ -104,6 +105,18 @@ guide-depth:
 # docs/benchmarks/connect-choice.md (~20 min).
 connect-choice:
 	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench_choice.py --choice connect --seeds 4 --out out/bench/connect-choice -o docs/benchmarks/connect-choice.md
+# Two builds of render side by side (a change that keeps the image and alters noise or cost): OLD_BIN is the
+# baseline's bin folder (a worktree of an earlier commit, built the same way), WHAT says what changed.
+# Unguided on the plain box, the panel box, the door; unguided and guided on the spheres and the egg;
+# 64 spp, 6 seeds. Report docs/benchmarks/$(AB_REPORT).md (~10 min). docs/benchmarks/lights.md is
+#   make -f pipelines/bench.mk ab OLD_BIN=/tmp/old/build/bin AB_REPORT=lights \
+#       WHAT='solid-angle sampling of mesh-light triangles above 0.1 sr (Arvo 1995)'
+# with OLD_BIN built at cc7b6f9.
+AB_REPORT ?= ab
+ab:
+	@test -n "$(OLD_BIN)" || { echo "bench.mk: ab needs OLD_BIN=<bin folder of the baseline build>" >&2; exit 2; }
+	IRIS_BIN=$(BIN) $(PYTHON) scripts/bench_ab.py --old-bin $(OLD_BIN) --what "$(WHAT)" --spp 64 --seeds 6 \
+		--out out/bench/ab -o docs/benchmarks/$(AB_REPORT).md
 # Issue 25, part 1: hybrid caches (render --learn) against photon-only caches on the room lit through a
 # door, with scarce (25k paths) and default photons. Report docs/benchmarks/hybrid-door.md (~25 min).
 hybrid:
