@@ -215,8 +215,8 @@ TriangleView view_triangle(const Mesh& m, uint32_t tri, Vec3 n, Vec3 ref) {
     // Van Oosterom and Strackee 1983: tan(Omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a).
     const double triple = std::abs(dot_d(v.a, cross_d(v.b, v.c)));
     const double den = 1.0 + dot_d(v.a, v.b) + dot_d(v.b, v.c) + dot_d(v.c, v.a);
-    // In float: past the far test the angle is at least ~0.01 sr, where float's 1e-7 is plenty (and its
-    // arctangent is several times cheaper than double's).
+    // In float: past the far test the angle is rarely far below kMinSolidAngle, where float's relative
+    // 1e-7 is plenty (and its arctangent is several times cheaper than double's).
     v.solid_angle = 2.0 * double(std::atan2(float(triple), float(den)));
     v.spherical = v.solid_angle >= kMinSolidAngle && v.solid_angle <= kMaxSolidAngle;
     return v;
@@ -241,7 +241,9 @@ bool sample_spherical_triangle(const TriangleView& v, Vec2 u, Vec3d* w) {
     const double s = sin_a * cos_alpha - cos_a * sin_alpha, t = cos_a * cos_alpha + sin_a * sin_alpha;
     const double k1 = t - cos_alpha;
     const double k2 = s + sin_alpha * dot_d(v.a, v.b);
-    const double q = std::clamp(((k2 * t - k1 * s) * cos_alpha - k2) / ((k2 * s + k1 * t) * sin_alpha), -1.0, 1.0);
+    const double q_raw = ((k2 * t - k1 * s) * cos_alpha - k2) / ((k2 * s + k1 * t) * sin_alpha);
+    if (!std::isfinite(q_raw)) return false;  // 0/0: a degenerate triangle, or u on an edge's line
+    const double q = std::clamp(q_raw, -1.0, 1.0);
     const Vec3d c_perp = sub(v.c, scale(v.a, dot_d(v.c, v.a)));  // the arc a-c's tangent at a
     const double cp2 = dot_d(c_perp, c_perp);
     if (!(cp2 > 0)) return false;

@@ -127,7 +127,9 @@ constexpr double kSolidAngleSampling = 0.1;
 // with normal `n` (the emitter's geometric normal, flipped as Mesh/Sphere::flip_normals says) on light
 // `light`, seen from `ref` (for MIS when a BSDF-sampled ray hits a light); for a mesh light `prim` is
 // the triangle p lies on (SurfaceHit::prim; ignored for other lights). It equals the pdf that
-// sample_light reports for that point, bit for bit, and is 0 wherever sample_light would reject.
+// sample_light reports for that point, bit for bit, and is 0 wherever sample_light rejects the point
+// itself (its back side, distance 0, an overflowing density). (A solid-angle sample that rounding
+// leaves without a direction or a point -- a measure-zero set -- is rejected by sample_light only.)
 // For the environment, p and n are ignored and wi is the direction. For a point light (which no ray
 // can hit) it returns the selection probability, the mass of the delta, as LightSample::pdf does.
 float light_pdf(const Scene& scene, uint32_t light, uint32_t prim, Vec3 ref, Vec3 p, Vec3 n, Vec3 wi);

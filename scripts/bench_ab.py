@@ -18,6 +18,7 @@ their mean images, to compare with what their noise alone explains.
 import argparse
 import datetime
 import os
+import shlex
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -104,7 +105,7 @@ def main():
              "(mean^2 + 0.01), mean over the pixels. Seconds: median wall time of the render command. Efficiency = "
              "1 / (relative variance x seconds). Last column: the mean squared relative difference of the two "
              "builds' mean images over what their noise alone gives (about 1 when they estimate the same image)."
-             % (" ".join(["scripts/bench_ab.py"] + sys.argv[1:]), datetime.date.today().isoformat(), a.threads,
+             % (shlex.join(["scripts/bench_ab.py"] + sys.argv[1:]), datetime.date.today().isoformat(), a.threads,
                 a.spp, a.seeds, a.old_bin), "",
              "| scene | mode | A: rel. variance | seconds | B: rel. variance | seconds | efficiency B / A | mean difference / noise |",
              "|---|---|---|---|---|---|---|---|"]

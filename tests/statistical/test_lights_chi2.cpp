@@ -207,7 +207,7 @@ TEST(LightChi2, QuadMeshLight) {
 
 TEST(LightChi2, TessellatedQuadNearAndFarTriangles) {
     // A 4 x 4 quad of 8 x 8 cells seen from 0.15 above one corner: the triangles nearby subtend more
-    // than 0.01 sr and are sampled in solid angle, the far ones by area, in one light.
+    // than kSolidAngleSampling (0.1 sr) and are sampled in solid angle, the far ones by area, in one light.
     Scene s;
     Mesh m;
     for (int j = 0; j <= 8; ++j)

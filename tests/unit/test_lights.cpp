@@ -202,7 +202,7 @@ TEST(Lights, MeshPdfMatchesSample) {
     int ok = check_pdf_consistency(s, Vec3(0.3f, 0.2f, 1.5f));
     EXPECT_GT(ok, 1000);
 
-    // From far away (every triangle under 0.01 sr: area sampling) the sampled points lie on the mesh,
+    // From far away (every triangle under kSolidAngleSampling: area sampling) the sampled points lie on the mesh,
     // with the normal of their triangle, and the pdf is the area density converted to solid angle.
     Rng rng(13, 14);
     Vec3 ref(0.3f, 0.2f, 40.0f);
@@ -276,6 +276,41 @@ TEST(Lights, NearTrianglesAreSampledInSolidAngle) {
         EXPECT_GT(counts[0], 9000);  // each triangle is half the area
         EXPECT_GT(counts[1], 9000);
     }
+}
+
+TEST(Lights, SolidAngleDecidesTheSampler) {
+    // One triangle, reference points scattered in front of it: every point whose triangle subtends more
+    // than kSolidAngleSampling (and less than 6.2 sr) is sampled in solid angle, pdf = 1 / Omega; every
+    // point under it by area, pdf = d^2 / (A cos). Catches a far test that sends near triangles to area
+    // sampling (which would stay unbiased, so no statistical test would notice).
+    Scene s;
+    Mesh m;
+    m.positions = {{0, 0, 0}, {1, 0, 0}, {0.2f, 0.8f, 0}};  // area 0.4, normal +z
+    m.indices = {0, 1, 2};
+    add_mesh_light(s, m, RGB(1, 1, 1));
+    lights_prepare(s);
+    Rng rng(31, 32);
+    int spherical = 0, by_area = 0;
+    auto check = [&](Vec3 ref) {
+        const double omega = girard_solid_angle(ref, m.positions[0], m.positions[1], m.positions[2]);
+        LightSample ls;
+        ASSERT_TRUE(sample_light(s, ref, 0.5f, {rng.next_float(), rng.next_float()}, &ls));
+        if (omega > 1.01 * kSolidAngleSampling && omega < 6.1) {
+            ++spherical;
+            EXPECT_NEAR(ls.pdf, 1.0 / omega, 1e-4 * ls.pdf) << ref.x << " " << ref.y << " " << ref.z;
+        } else if (omega < 0.99 * kSolidAngleSampling || omega > 6.3) {
+            ++by_area;
+            Vec3 d = ls.p - ref;
+            double expected = double(length_sq(d)) / (0.4 * double(dot(ls.n, -normalize(d))));
+            EXPECT_NEAR(ls.pdf, expected, 1e-4 * expected) << ref.x << " " << ref.y << " " << ref.z;
+        }
+    };
+    for (int i = 0; i < 4000; ++i)
+        check(Vec3(4 * rng.next_float() - 1.5f, 4 * rng.next_float() - 1.5f, 2 * rng.next_float() * rng.next_float() + 1e-3f));
+    // Almost on the triangle, over its interior: more than 6.2 sr, area sampling again.
+    check(Vec3(0.4f, 0.3f, 1e-4f));
+    EXPECT_GT(spherical, 500);
+    EXPECT_GT(by_area, 500);
 }
 
 TEST(Lights, MeshEmitsOnNormalSideOnly) {
