@@ -142,6 +142,28 @@ def cmd_reference(a):
     print("reference %s: %s spp, %.0f s" % (a.output, meta.get("iris:spp"), seconds))
 
 
+def add_spread_options(ap, seeds):
+    """The options of the benchmarks that measure noise from the spread across seeds (bench_sampler.py,
+    bench_choice.py, bench_ab.py)."""
+    ap.add_argument("--out", required=True, help="folder for the renders")
+    ap.add_argument("-o", "--output", required=True, help="report (Markdown)")
+    ap.add_argument("--seeds", type=int, default=seeds)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--only", default="", help="comma-separated scene names")
+
+
+def selected_scenes(scenes, a):
+    """(entry, its render folder) for the entries of `scenes` (tuples whose first item is the scene's name)
+    that --only selects, each folder created under --out."""
+    only = set(filter(None, a.only.split(",")))
+    for entry in scenes:
+        if only and entry[0] not in only:
+            continue
+        out = os.path.join(a.out, entry[0])
+        os.makedirs(out, exist_ok=True)
+        yield entry, out
+
+
 def seed_spread(images, seconds):
     """Noise from the spread across seeds. images: key -> luminance images of one scene, one per seed (every
     key estimates the same image); seconds: key -> wall times. Per key (relative variance of one render,

@@ -48,12 +48,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--old-bin", required=True, help="bin folder of build A (the baseline)")
     ap.add_argument("--what", required=True, help="one line: what B changes, for the report's title")
-    ap.add_argument("--out", required=True, help="folder for the renders")
-    ap.add_argument("-o", "--output", required=True, help="report (Markdown)")
-    ap.add_argument("--spp", type=int, default=32)
-    ap.add_argument("--seeds", type=int, default=6)
-    ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--only", default="", help="comma-separated scene names")
+    bench.add_spread_options(ap, seeds=6)
+    ap.add_argument("--spp", type=int, default=64)
     a = ap.parse_args()
     if a.seeds < 2 or a.spp < 1:
         sys.exit("bench_ab: needs --seeds >= 2 and --spp >= 1")
@@ -61,13 +57,8 @@ def main():
         sys.exit("bench_ab: no render in --old-bin %s" % a.old_bin)
     import numpy as np
     builds = (("A", a.old_bin), ("B", bench.BIN))
-    only = set(filter(None, a.only.split(",")))
     rows = []
-    for name, scene, res, modes in SCENES:
-        if only and name not in only:
-            continue
-        out = os.path.join(a.out, name)
-        os.makedirs(out, exist_ok=True)
+    for (name, scene, res, modes), out in bench.selected_scenes(SCENES, a):
         if any(m != "nee+bsdf" for m, _ in modes):
             bench.run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + scene, "OUT=" + out, "BIN=" + bench.BIN,
                        "RESOLUTION=" + res, "atlas"])

@@ -51,24 +51,15 @@ CHOICES = {
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--choice", required=True, choices=sorted(CHOICES))
-    ap.add_argument("--out", required=True, help="folder for the renders")
-    ap.add_argument("-o", "--output", required=True, help="report (Markdown)")
+    bench.add_spread_options(ap, seeds=3)
     ap.add_argument("--seconds", type=float, default=30)
-    ap.add_argument("--seeds", type=int, default=3)
-    ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--only", default="", help="comma-separated scene names")
     a = ap.parse_args()
     if a.seeds < 2 or not a.seconds > 0:
         sys.exit("bench_choice: needs --seeds >= 2 and --seconds > 0")
     choice = CHOICES[a.choice]
     (label_a, flags_a), (label_b, flags_b) = choice["settings"]
-    only = set(filter(None, a.only.split(",")))
     rows = []
-    for name, scene, res, shared in choice["scenes"]:
-        if only and name not in only:
-            continue
-        out = os.path.join(a.out, name)
-        os.makedirs(out, exist_ok=True)
+    for (name, scene, res, shared), out in bench.selected_scenes(choice["scenes"], a):
         bench.run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + scene, "OUT=" + out, "BIN=" + bench.BIN,
                    "RESOLUTION=" + res, "atlas"])
         images, seconds = {}, {}

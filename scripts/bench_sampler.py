@@ -41,22 +41,13 @@ SAMPLERS = ("independent", "sobol")
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--out", required=True, help="folder for the renders")
-    ap.add_argument("-o", "--output", required=True, help="report (Markdown)")
+    bench.add_spread_options(ap, seeds=6)
     ap.add_argument("--spp", type=int, default=64)
-    ap.add_argument("--seeds", type=int, default=6)
-    ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--only", default="", help="comma-separated scene names")
     a = ap.parse_args()
     if a.seeds < 2 or a.spp < 1:
         sys.exit("bench_sampler: needs --seeds >= 2 and --spp >= 1")
-    only = set(filter(None, a.only.split(",")))
     rows = []
-    for name, scene, res, modes in SCENES:
-        if only and name not in only:
-            continue
-        out = os.path.join(a.out, name)
-        os.makedirs(out, exist_ok=True)
+    for (name, scene, res, modes), out in bench.selected_scenes(SCENES, a):
         if any(m != "nee+bsdf" for m, _ in modes):
             bench.run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + scene, "OUT=" + out, "BIN=" + bench.BIN,
                        "atlas"])
