@@ -178,6 +178,7 @@ struct TriangleView {
     bool spherical = false;
     Vec3d a, b, c;           // unit directions ref -> vertices 0, 1, 2
     double solid_angle = 0;  // sr
+    double height = 0;       // n . (vertex 0 - ref): minus ref's distance to the triangle's plane (< 0)
 };
 
 // Whether triangle `tri` may subtend kMinSolidAngle or more from ref: a cheap bound that sends far
@@ -206,7 +207,8 @@ TriangleView view_triangle(const Mesh& m, uint32_t tri, Vec3 n, Vec3 ref) {
                 d2 = sub(to_d(m.positions[idx[2]]), r);
     // Emitters radiate on their normal's side: ref must be strictly in front of the plane (otherwise
     // the area branch rejects every point of the triangle, as before).
-    if (!(dot_d(to_d(n), d0) < 0)) return v;
+    v.height = dot_d(to_d(n), d0);
+    if (!(v.height < 0)) return v;
     const double l0 = dot_d(d0, d0), l1 = dot_d(d1, d1), l2 = dot_d(d2, d2);
     if (!(l0 > 0 && l1 > 0 && l2 > 0) || !std::isfinite(l0 + l1 + l2)) return v;
     v.a = scale(d0, 1.0 / std::sqrt(l0));
@@ -266,29 +268,34 @@ float spherical_density(const Light& l, uint32_t tri, const TriangleView& v) {
     return float(double(l.triangles.pmf(tri)) / v.solid_angle);
 }
 
+// The solid-angle branch of sample_mesh: a direction uniform in the triangle's spherical triangle, and
+// the point where it meets the triangle's plane.
+bool sample_mesh_solid_angle(const Light& l, uint32_t tri, Vec3 n, const TriangleView& view, Vec3 ref, Vec2 u,
+                             LightSample* s) {
+    Vec3d w;
+    if (!sample_spherical_triangle(view, u, &w)) return false;
+    const double cos_w = dot_d(to_d(n), w);
+    const double dist = view.height / cos_w;  // both < 0: ref is in front of the plane, w points at it
+    if (!(cos_w < 0) || !(dist > 0) || !std::isfinite(dist)) return false;
+    s->p = to_f(add(to_d(ref), scale(w, dist)));
+    s->n = n;
+    s->wi = to_f(w);
+    s->dist = float(dist);
+    s->radiance = l.radiance;
+    s->pdf = spherical_density(l, tri, view);
+    s->prim = tri;
+    return s->pdf > 0;
+}
+
 bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2 u, LightSample* s) {
     if (l.triangles.empty() || !(l.area > 0)) return false;
     const Mesh& m = scene.meshes[l.shape];
     uint32_t tri = l.triangles.sample(u_tri);
     const Vec3 n = l.triangle_normals[tri];
     if (n.x == 0 && n.y == 0 && n.z == 0) return false;  // unreachable: zero-area triangles have weight 0
-    const TriangleView view = maybe_near(l, tri, ref) ? view_triangle(m, tri, n, ref) : TriangleView{};
-    if (view.spherical) {
-        Vec3d w;
-        if (!sample_spherical_triangle(view, u, &w)) return false;
-        // The point where w meets the triangle's plane (ref is in front of it, so both dots are < 0).
-        const Vec3d nd = to_d(n);
-        const double cos_w = dot_d(nd, w);
-        const double dist = dot_d(nd, sub(to_d(m.positions[m.indices[3 * size_t(tri)]]), to_d(ref))) / cos_w;
-        if (!(cos_w < 0) || !(dist > 0) || !std::isfinite(dist)) return false;
-        s->p = to_f(add(to_d(ref), scale(w, dist)));
-        s->n = n;
-        s->wi = to_f(w);
-        s->dist = float(dist);
-        s->radiance = l.radiance;
-        s->pdf = spherical_density(l, tri, view);
-        s->prim = tri;
-        return s->pdf > 0;
+    if (maybe_near(l, tri, ref)) {
+        const TriangleView view = view_triangle(m, tri, n, ref);
+        if (view.spherical) return sample_mesh_solid_angle(l, tri, n, view, ref, u, s);
     }
     const uint32_t* idx = &m.indices[3 * size_t(tri)];
     Vec3 p0 = m.positions[idx[0]], p1 = m.positions[idx[1]], p2 = m.positions[idx[2]];
@@ -564,14 +571,9 @@ void lights_prepare(Scene& scene) {
                 std::vector<float> areas(m.triangle_count());
                 for (uint32_t t = 0; t < m.triangle_count(); ++t) areas[t] = float(triangle_area(m, t));
                 l.triangles = Distribution1D(areas);
+                // Per triangle: its normal, and what maybe_near's bound needs (centroid, the centroid's
+                // largest distance to a vertex, area over the threshold).
                 l.triangle_normals.assign(m.triangle_count(), Vec3(0.0f));
-                for (uint32_t t = 0; t < m.triangle_count(); ++t) {
-                    const Vec3d c = triangle_cross(m, t);
-                    const double len = std::sqrt(dot_d(c, c));
-                    if (!(len > 0)) continue;
-                    const Vec3 n = to_f(scale(c, 1.0 / len));
-                    l.triangle_normals[t] = m.flip_normals ? -n : n;
-                }
                 l.triangle_near.assign(m.triangle_count(), Light::TriangleNear{});
                 for (uint32_t t = 0; t < m.triangle_count(); ++t) {
                     const uint32_t* idx = &m.indices[3 * size_t(t)];
@@ -580,6 +582,11 @@ void lights_prepare(Scene& scene) {
                     double r2 = 0;
                     for (const Vec3d& q : p) r2 = std::max(r2, dot_d(sub(q, centre), sub(q, centre)));
                     l.triangle_near[t] = {to_f(centre), float(std::sqrt(r2)), float(double(areas[t]) / kMinSolidAngle)};
+                    const Vec3d c = triangle_cross(m, t);
+                    const double len = std::sqrt(dot_d(c, c));
+                    if (!(len > 0)) continue;
+                    const Vec3 n = to_f(scale(c, 1.0 / len));
+                    l.triangle_normals[t] = m.flip_normals ? -n : n;
                 }
                 l.area = float(l.triangles.total());
                 break;

@@ -65,7 +65,7 @@ struct Light {
     // value sample_mesh computed each time, so the images do not change).
     std::vector<Vec3> triangle_normals;
     // AreaMesh: per triangle what the cheap test needs that keeps far triangles on area sampling
-    // (lights.cpp, view_triangle): its centroid, the centroid's largest distance to a vertex (world
+    // (lights.cpp, maybe_near): its centroid, the centroid's largest distance to a vertex (world
     // units), and its area over the solid-angle sampler's threshold (world units squared per sr).
     struct TriangleNear {
         Vec3 centre;
@@ -117,10 +117,10 @@ void lights_prepare(Scene& scene);
 bool sample_light(const Scene& scene, Vec3 ref, float u_sel, Vec2 u, LightSample* s);
 
 // Least solid angle (sr) of a mesh light's triangle, seen from the reference point, for which
-// sample_light samples it uniformly in solid angle rather than by area. On a Cornell box with a ceiling
-// panel of 80 % of the ceiling, 0.01 and 0.1 left the same variance (1 % apart) and 0.1 cost less time;
-// the box's usual small lamp subtends less than 0.1 sr everywhere, so it keeps area sampling
-// (docs/benchmarks/lights.md).
+// sample_light samples it uniformly in solid angle rather than by area. On the Cornell box lit by a
+// ceiling panel (scenes/cbox/panel_box.xml), 0.01 and 0.1 left the same variance (1 % apart) and 0.1
+// cost less time, 0.3 and 1.0 gained less; the box's usual small lamp subtends less than 0.1 sr
+// everywhere, so it keeps area sampling (docs/BENCHMARKS.md, lights.md).
 constexpr double kSolidAngleSampling = 0.1;
 
 // Density per steradian (including selection) with which sample_light would produce the point `p`

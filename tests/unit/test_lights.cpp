@@ -254,8 +254,7 @@ TEST(Lights, NearTrianglesAreSampledInSolidAngle) {
     for (Vec3 ref : {Vec3(0.3f, 0.2f, 0.5f), Vec3(0.1f, -0.1f, 0.05f), Vec3(1.5f, 0.2f, 0.5f)}) {
         EXPECT_GT(check_pdf_consistency(s, ref), 1000);
         double omega[2];
-        for (uint32_t t = 0; t < 2; ++t)
-        {
+        for (uint32_t t = 0; t < 2; ++t) {
             omega[t] = girard_solid_angle(ref, m.positions[m.indices[3 * t]], m.positions[m.indices[3 * t + 1]],
                                           m.positions[m.indices[3 * t + 2]]);
             ASSERT_GT(omega[t], 1.01 * kSolidAngleSampling) << "the test wants both triangles sampled in solid angle";
