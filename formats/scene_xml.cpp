@@ -949,8 +949,8 @@ private:
         IgnoreRule ignore;
         // Name an unsupported BSDF plugin first: wrappers such as bumpmap or mask nest a <bsdf>, which
         // would otherwise be reported as a misplaced element.
-        static const char* const kSupported[] = {"twosided", "diffuse", "roughdiffuse", "dielectric", "conductor",
-                                                 "roughconductor", "plastic", "roughplastic", "ward"};
+        static const char* const kSupported[] = {"twosided",  "diffuse",        "roughdiffuse", "dielectric", "thindielectric",
+                                                 "conductor", "roughconductor", "plastic",      "roughplastic", "ward"};
         if (std::find(std::begin(kSupported), std::end(kSupported), t) == std::end(kSupported))
             fail(src, p.line, "unsupported plugin " + quote(t) + " (bsdf)");
         if (t == "twosided") {
@@ -982,8 +982,8 @@ private:
                 if (get_bool(p, "useFastApprox", false))
                     warn(src, find(p, "useFastApprox")->line,
                          "useFastApprox ignored: iris always evaluates the full Oren-Nayar model");
-            } else if (t == "dielectric") {
-                b.type = BsdfType::Dielectric;
+            } else if (t == "dielectric" || t == "thindielectric") {
+                b.type = t == "dielectric" ? BsdfType::Dielectric : BsdfType::ThinDielectric;
                 b.ior = get_ior(p, "intIOR", "bk7") / get_ior(p, "extIOR", "air");
                 b.specular = spectrum_param(p, tex, "specularReflectance", RGB(1.0f), &b.tex_specular);
                 b.transmittance = spectrum_param(p, tex, "specularTransmittance", RGB(1.0f), &b.tex_transmittance);

@@ -197,6 +197,7 @@ double ward_specular_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
 RGB eval_front(const Bsdf& b, Vec3 wi, Vec3 wo) {
     switch (b.type) {
         case BsdfType::Dielectric:
+        case BsdfType::ThinDielectric:
         case BsdfType::Conductor:
             return RGB(0.0f);  // Dirac lobes only
         default:
@@ -240,7 +241,7 @@ RGB eval_front(const Bsdf& b, Vec3 wi, Vec3 wo) {
 }
 
 float pdf_front(const Bsdf& b, Vec3 wi, Vec3 wo) {
-    if (b.type == BsdfType::Dielectric || b.type == BsdfType::Conductor) return 0.0f;
+    if (bsdf_is_delta(b)) return 0.0f;
     if (wi.z <= 0 || wo.z <= 0) return 0.0f;
     switch (b.type) {
         case BsdfType::Diffuse:
@@ -305,6 +306,28 @@ bool sample_front(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s, Trans
             // light travelling wo -> wi, i.e. the ratio above squared); importance is not.
             const float factor = mode == TransportMode::Radiance ? ratio * ratio : 1.0f;
             s->weight = b.transmittance * factor;
+            return true;
+        }
+        case BsdfType::ThinDielectric: {
+            // Mitsuba's thindielectric: a pane whose two faces are this surface, light bouncing
+            // between them any number of times. Reflected in all: R' = R + T R T + T R^3 T + ... =
+            // R + T^2 R / (1 - R^2), with R the Fresnel reflectance of one face and T = 1 - R; the
+            // rest, 1 - R', leaves the far face parallel to where it came in (the two refractions
+            // cancel), so the ray goes straight on and radiance is not rescaled. The same from
+            // either side.
+            float R = fresnel_dielectric(std::abs(wi.z), b.ior);
+            if (R < 1) R += (1 - R) * (1 - R) * R / (1 - R * R);
+            s->delta = true;
+            s->eta = 1.0f;
+            if (uc < R) {
+                s->wo = reflect_normal(wi);
+                s->weight = b.specular;  // (R' / R') times the reflectance multiplier
+                s->pdf = R;
+            } else {
+                s->wo = -wi;
+                s->weight = b.transmittance;
+                s->pdf = 1 - R;
+            }
             return true;
         }
         case BsdfType::Conductor: {
@@ -499,7 +522,9 @@ bool bsdf_sample(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s, Transp
     return true;
 }
 
-bool bsdf_is_delta(const Bsdf& b) { return b.type == BsdfType::Dielectric || b.type == BsdfType::Conductor; }
+bool bsdf_is_delta(const Bsdf& b) {
+    return b.type == BsdfType::Dielectric || b.type == BsdfType::ThinDielectric || b.type == BsdfType::Conductor;
+}
 
 bool bsdf_has_delta_lobe(const Bsdf& b) { return bsdf_is_delta(b) || b.type == BsdfType::Plastic; }
 

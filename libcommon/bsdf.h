@@ -23,6 +23,7 @@ enum class BsdfType : uint8_t {
     Diffuse,         // Lambertian, `reflectance`
     RoughDiffuse,    // Oren-Nayar (full model), `reflectance`, `alpha` (sigma = alpha / sqrt 2 as in Mitsuba)
     Dielectric,      // smooth glass: Fresnel reflection + refraction, `intIOR`/`extIOR`
+    ThinDielectric,  // a thin pane of smooth glass (`thindielectric`): Fresnel reflection, or straight through
     Conductor,       // smooth metal: conductor Fresnel with complex IOR `eta`, `k`
     RoughConductor,  // microfacet metal (Beckmann / GGX, isotropic or anisotropic)
     Plastic,         // smooth dielectric coating over a diffuse base
@@ -41,10 +42,10 @@ struct Bsdf {
     BsdfType type = BsdfType::Diffuse;
     bool two_sided = false;       // `twosided` wrapper: the back side mirrors the front side
     RGB diffuse{0.5f};            // diffuse reflectance (diffuse, roughdiffuse, plastic*, ward)
-    RGB specular{1.0f};           // specular reflectance (conductor*, dielectric, plastic*, ward)
-    RGB transmittance{1.0f};      // specular transmittance (dielectric)
+    RGB specular{1.0f};           // specular reflectance (conductor*, dielectric*, plastic*, ward)
+    RGB transmittance{1.0f};      // specular transmittance (dielectric*)
     RGB eta{0.0f}, k{0.0f};       // conductor: complex IOR relative to the exterior medium
-    float ior = 1.5f;             // dielectric/plastic: interior IOR / exterior IOR
+    float ior = 1.5f;             // dielectric*/plastic*: interior IOR / exterior IOR
     float alpha_u = 0.1f, alpha_v = 0.1f;  // roughness (Beckmann/GGX alpha, Ward alpha, Oren-Nayar alpha)
     Microfacet distribution = Microfacet::Beckmann;
     WardVariant ward_variant = WardVariant::Balanced;
@@ -104,11 +105,12 @@ bool bsdf_sample(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s,
 float bsdf_guidable_share(const Bsdf& b, Vec3 wi);
 // The replaceable lobes' part of bsdf_pdf(b, wi, wo): their share times their density per steradian.
 float bsdf_guidable_pdf(const Bsdf& b, Vec3 wi, Vec3 wo);
-// True if the BSDF has only Dirac lobes (dielectric, conductor): NEE and guiding are pointless there.
+// True if the BSDF has only Dirac lobes (dielectric, thin dielectric, conductor): NEE and guiding are
+// pointless there.
 bool bsdf_is_delta(const Bsdf& b);
 // True if some lobe is smooth enough that MIS/NEE at this vertex makes sense (has a non-delta part).
 inline bool bsdf_has_nondelta(const Bsdf& b) { return !bsdf_is_delta(b); }
-// True if some lobe is a Dirac lobe (dielectric, conductor, the smooth coat of plastic): the only
+// True if some lobe is a Dirac lobe (the Dirac-only BSDFs, the smooth coat of plastic): the only
 // surfaces where a light path can take a specular bounce (a caustic).
 bool bsdf_has_delta_lobe(const Bsdf& b);
 

@@ -274,6 +274,14 @@ TEST(GuidingUnbiased, CausticConnectionsKeepTheImage) {
     expect_nee_modes_agree("guiding/glass_lamp_box.xml", "--connect on", 1024, 4096);
 }
 
+// The same through a thin pane (`thindielectric`) under the light instead of the slab
+// (tests/data/guiding/thin_pane_box.xml): the Dirac chain is one vertex that passes light straight on,
+// and photons, caches, the light tracer, its pools and the connections' weights all go through it.
+TEST(GuidingUnbiased, ThinPaneUnderTheLightKeepsTheImage) {
+    expect_nee_modes_agree("guiding/thin_pane_box.xml",
+                           "--connect on --caustics on --guide-vertices 0 --rr-threshold 0.1", 1024, 4096);
+}
+
 // Light tracing of the caustics seen directly (render --caustics on, tools/render/caustics.h) splits path
 // space with the path tracer: the path tracer drops the caustic class and the light tracer adds it, so
 // the image must still be the plain path tracer's, per pixel -- unguided and with the deep guided

@@ -95,6 +95,11 @@ Bsdf dielectric(float ior, RGB refl = RGB(1), RGB trans = RGB(1)) {
     b.transmittance = trans;
     return prepared(b);
 }
+Bsdf thin_dielectric(float ior, RGB refl = RGB(1), RGB trans = RGB(1)) {
+    Bsdf b = dielectric(ior, refl, trans);
+    b.type = BsdfType::ThinDielectric;
+    return prepared(b);
+}
 Bsdf conductor(RGB eta, RGB k, RGB spec = RGB(1)) {
     Bsdf b;
     b.type = BsdfType::Conductor;
@@ -382,6 +387,7 @@ TEST(BsdfEnergy, LosslessModelsConserveEnergyExactly) {
         {"conductor_none", conductor(RGB(0), RGB(1))},
         {"conductor_zero", conductor(RGB(0), RGB(0))},
         {"dielectric_1.5", dielectric(1.5f)},
+        {"thin_dielectric_1.5", thin_dielectric(1.5f)},
     };
     for (const Case& c : lossless)
         for (float theta : {0.0f, 45.0f, 70.0f, 85.0f}) {
@@ -390,10 +396,13 @@ TEST(BsdfEnergy, LosslessModelsConserveEnergyExactly) {
             Albedo a = albedo(c.b, dir(theta, 20), TransportMode::Importance);
             EXPECT_NEAR(a.mean, 1.0, 4 * a.stderr_ + 1e-4);
         }
-    // From inside the glass too (including total internal reflection at 60 degrees).
+    // From inside the glass too (including total internal reflection at 60 degrees), and the thin pane
+    // from its back (in radiance mode: it never rescales).
     for (float theta : {100.0f, 135.0f, 150.0f, 179.0f}) {
         Albedo a = albedo(dielectric(1.5f), dir(theta, 20), TransportMode::Importance);
         EXPECT_NEAR(a.mean, 1.0, 4 * a.stderr_ + 1e-4) << theta;
+        Albedo thin = albedo(thin_dielectric(1.5f), dir(theta, 20), TransportMode::Radiance);
+        EXPECT_NEAR(thin.mean, 1.0, 4 * thin.stderr_ + 1e-4) << theta;
     }
 }
 
@@ -556,6 +565,53 @@ TEST(BsdfDielectric, IndexMatchedAndHorizonAreSafe) {
         ASSERT_TRUE(bsdf_sample(g, Vec3(1, 0, 0), {0.5f, 0.5f}, uc, &s));
         EXPECT_TRUE(is_finite(s.wo) && is_finite(s.weight) && std::isfinite(s.pdf));
     }
+}
+
+// A thin pane reflects R' = 2R / (1 + R) of the light in all (R: one face's Fresnel reflectance; the
+// closed form of the series R + T R T + T R^3 T + ... that the model sums) and lets the rest through
+// undeviated, the same from either side, without the eta^2 scaling of a refraction.
+TEST(BsdfThinDielectric, ReflectsTheFacesInterreflectionsAndPassesStraightThrough) {
+    const float ior = 1.5f;
+    Bsdf b = thin_dielectric(ior, RGB(0.9f), RGB(0.8f));
+    EXPECT_TRUE(bsdf_is_delta(b));
+    EXPECT_TRUE(bsdf_has_delta_lobe(b));
+    EXPECT_EQ(bsdf_guidable_share(b, dir(30, 0)), 0.0f);
+    // Normal incidence: R = ((n - 1) / (n + 1))^2 = 0.04, R' = 0.08 / 1.04.
+    BsdfSample s;
+    ASSERT_TRUE(bsdf_sample(b, dir(0, 0), {0.5f, 0.5f}, 0.0f, &s));
+    EXPECT_NEAR(s.pdf, 0.08f / 1.04f, 1e-6f);
+    for (Vec3 wi : {dir(0, 0), dir(40, 30), dir(60, 0), dir(85, -60), dir(130, 200), dir(170, 10)}) {
+        SCOPED_TRACE(std::to_string(wi.z));
+        const float R = fresnel_dielectric(std::abs(wi.z), ior), R_pane = 2 * R / (1 + R);
+        EXPECT_EQ(bsdf_pdf(b, wi, -wi), 0.0f);
+        EXPECT_TRUE(is_black(bsdf_eval(b, wi, -wi)));
+        for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
+            BsdfSample r, t;
+            ASSERT_TRUE(bsdf_sample(b, wi, {0.3f, 0.6f}, R_pane * 0.5f, &r, mode));
+            EXPECT_TRUE(r.delta);
+            EXPECT_NEAR(r.pdf, R_pane, 1e-6f);
+            EXPECT_EQ(r.eta, 1.0f);
+            EXPECT_NEAR(r.wo.x, -wi.x, 1e-6f);
+            EXPECT_NEAR(r.wo.y, -wi.y, 1e-6f);
+            EXPECT_NEAR(r.wo.z, wi.z, 1e-6f);
+            EXPECT_TRUE(rgb_near(r.weight, RGB(0.9f), 1e-6f));
+            ASSERT_TRUE(bsdf_sample(b, wi, {0.3f, 0.6f}, R_pane + (1 - R_pane) * 0.5f, &t, mode));
+            EXPECT_TRUE(t.delta);
+            EXPECT_NEAR(t.pdf, 1 - R_pane, 1e-6f);
+            EXPECT_EQ(t.eta, 1.0f);
+            EXPECT_EQ(t.wo.x, -wi.x);
+            EXPECT_EQ(t.wo.y, -wi.y);
+            EXPECT_EQ(t.wo.z, -wi.z);
+            EXPECT_TRUE(rgb_near(t.weight, RGB(0.8f), 1e-6f));
+        }
+    }
+    // Index-matched: everything passes; on the horizon: everything reflects.
+    ASSERT_TRUE(bsdf_sample(thin_dielectric(1.0f), dir(50, 10), {0.5f, 0.5f}, 0.0f, &s));
+    EXPECT_EQ(s.pdf, 1.0f);
+    EXPECT_NEAR(s.wo.z, -dir(50, 10).z, 1e-6f);
+    ASSERT_TRUE(bsdf_sample(b, Vec3(1, 0, 0), {0.5f, 0.5f}, 0.9999f, &s));
+    EXPECT_EQ(s.pdf, 1.0f);
+    EXPECT_TRUE(is_finite(s.wo) && is_finite(s.weight));
 }
 
 TEST(BsdfConductor, MirrorWeightIsFresnel) {
@@ -759,6 +815,8 @@ TEST(BsdfRobustness, GrazingTinyAlphaAndIndexMatchedAreFinite) {
         cases.push_back({"ward_tiny", ward(v, 1e-6f, 1e-6f, RGB(0.2f), RGB(0.5f))});
     cases.push_back({"dielectric", dielectric(1.5f), true});
     cases.push_back({"dielectric_ior1", dielectric(1.0f), true});
+    cases.push_back({"thin_dielectric", thin_dielectric(1.5f), true});
+    cases.push_back({"thin_dielectric_ior1", thin_dielectric(1.0f), true});
     cases.push_back({"conductor", conductor(kGoldEta, kGoldK), true});
     Rng rng(19, 1);
     for (const Case& c : cases) {

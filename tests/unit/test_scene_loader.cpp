@@ -602,6 +602,7 @@ TEST(SceneLoader, BsdfParameterNamesAndDefaults) {
     std::string body = shape("diffuse", R"(<bsdf type="diffuse"/>)") +
                        shape("glass", R"(<bsdf type="dielectric"><string name="intIOR" value="water"/><float name="extIOR" value="1.0"/></bsdf>)") +
                        shape("glassdef", R"(<bsdf type="dielectric"/>)") +
+                       shape("pane", R"(<bsdf type="thindielectric"><float name="intIOR" value="1.52"/><rgb name="specularTransmittance" value="0.9, 0.8, 0.7"/></bsdf>)") +
                        shape("gold", R"(<bsdf type="roughconductor"><string name="material" value="Au"/><string name="distribution" value="ggx"/><float name="alphaU" value="0.1"/><float name="alphaV" value="0.3"/></bsdf>)") +
                        shape("plastic", R"(<bsdf type="plastic"><boolean name="nonlinear" value="true"/></bsdf>)") +
                        shape("rough", R"(<bsdf type="roughplastic"/>)") +
@@ -614,6 +615,11 @@ TEST(SceneLoader, BsdfParameterNamesAndDefaults) {
     expect_rgb(bsdf("diffuse").diffuse, RGB(0.5f), 0);
     EXPECT_NEAR(bsdf("glass").ior, 1.333f, 1e-6f);
     EXPECT_NEAR(bsdf("glassdef").ior, 1.5046f / 1.00028f, 1e-6f);  // bk7 in air
+    const Bsdf& pane = bsdf("pane");
+    EXPECT_EQ(pane.type, BsdfType::ThinDielectric);
+    EXPECT_NEAR(pane.ior, 1.52f / 1.00028f, 1e-6f);
+    expect_rgb(pane.specular, RGB(1.0f), 0);
+    expect_rgb(pane.transmittance, RGB(0.9f, 0.8f, 0.7f), 1e-6f);
     const Bsdf& gold = bsdf("gold");
     EXPECT_EQ(gold.type, BsdfType::RoughConductor);
     EXPECT_EQ(gold.distribution, Microfacet::GGX);
