@@ -23,13 +23,13 @@ Vec3 disk_origin(const Scene& scene, Vec3 d, Vec2 u) {
     return c + (f.s * disk.x + f.t * disk.y) * r - d * r;
 }
 
+}  // namespace
+
 float bounding_disk_area(const Scene& scene) {
     float r = 0.5f * length(scene.bounds_max - scene.bounds_min);
     if (!(r > 0)) r = 1;
     return kPi * r * r;
 }
-
-}  // namespace
 
 bool sample_emission(const Scene& scene, float u_sel, Vec2 u_pos, Vec2 u_dir, EmissionSample* s) {
     if (scene.light_selection.empty()) return false;

@@ -13,6 +13,7 @@
 #include "libcommon/rng.h"
 #include "libcommon/sampling.h"
 #include "libcommon/scene.h"
+#include "tools/render/connections.h"
 
 namespace iris {
 namespace {
@@ -104,6 +105,37 @@ TEST(EnvLights, EnvmapPdfMatchesSampleLightAndIntegratesToOne) {
     const double cell = 4 * M_PI / (double(nz) * nphi);
     EXPECT_NEAR(sum * cell, 1.0, 3e-3);
     EXPECT_NEAR(lum * cell / env.envmap->integral.g, 1.0, 3e-3);
+}
+
+// Caustic connections weigh a chain from the sky by p_e = p_select p(w) / (pi R^2) (light_emit_density):
+// the density with which sample_emission makes its light path. A light path's flux is the radiance it
+// carries over that density, so flux x p_e must give back the radiance, for every direction, or the
+// weights would describe another sampler than the one that traced the pools.
+TEST(EnvLights, ConnectionEmitDensityIsTheEmissionSamplersDensity) {
+    std::vector<RGB> t(16 * 8);
+    for (int i = 0; i < 16 * 8; ++i) t[size_t(i)] = RGB(0.2f + 0.1f * float(i % 5), 0.5f, 0.02f + 0.03f * float(i / 16));
+    t[41] = RGB(80, 60, 40);
+    Scene map = env_scene(make_envmap(16, 8, t, Transform::rotate(Vec3(0, 1, 1), 25)));
+    Scene constant;
+    Light c;
+    c.type = LightType::Constant;
+    c.radiance = RGB(2, 1, 0.5f);
+    constant.lights.push_back(c);
+    constant.bounds_min = Vec3(-2, -1, 0);
+    constant.bounds_max = Vec3(3, 1, 2);
+    lights_prepare(constant);
+    for (const Scene* s : {&map, &constant}) {
+        Rng rng(5, 3);
+        for (int i = 0; i < 2000; ++i) {
+            EmissionSample e;
+            ASSERT_TRUE(sample_emission(*s, rng.next_float(), {rng.next_float(), rng.next_float()},
+                                        {rng.next_float(), rng.next_float()}, &e));
+            const float pe = light_emit_density(*s, e.light, -e.d);
+            const RGB le = light_emitted(s->lights[e.light], Vec3(0), e.d);
+            ASSERT_GT(pe, 0.0f);
+            for (int k = 0; k < 3; ++k) ASSERT_NEAR(e.flux[k] * pe / le[k], 1.0, 1e-4) << i << " channel " << k;
+        }
+    }
 }
 
 TEST(EnvLights, ConstantMapHasPowerOfTheConstantEnvironment) {

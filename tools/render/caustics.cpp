@@ -86,8 +86,8 @@ bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSpla
     const LightType type = scene_.lights[e.light].type;
     const bool env = type == LightType::Constant || type == LightType::Envmap;
     if (!env && e.n.x == 0 && e.n.y == 0 && e.n.z == 0) return true;
-    // Connections join only chains from area lights (connections.h).
-    const float emit_density = pool && !env ? light_emit_density(scene_, e.light) : 0.0f;
+    // Connections join the chains from area lights and the environment (connections.h).
+    const float emit_density = pool ? light_emit_density(scene_, e.light, -e.d) : 0.0f;
     RGB beta = e.flux;
     Ray ray;
     ray.o = env ? e.p : offset_ray_origin(e.p, e.n, e.d, scene_.scale());

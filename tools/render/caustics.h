@@ -48,7 +48,8 @@ public:
     // Whether class C can hold any path: an area light and a surface with a Dirac lobe.
     static bool possible(const Scene& scene);
     // Traces light path `index` of the render seeded `seed` and appends its splats to `out` (if given)
-    // and its vertices after a specular chain from an area light to `pool` (if given; connections.h).
+    // and its vertices after a specular chain from an area light or the environment to `pool` (if given;
+    // connections.h).
     // Returns false if a contribution was NaN or Inf (it is dropped; the caller counts it).
     bool trace(uint64_t seed, uint64_t index, std::vector<CausticSplat>* out, PathCounters& counters,
                std::vector<LightVertex>* pool = nullptr) const;

@@ -4,17 +4,29 @@
 
 #include <algorithm>
 
+#include "libcommon/emission.h"
+#include "libcommon/lights.h"
 #include "tools/render/caustics.h"
 
 namespace iris {
 
-float light_emit_density(const Scene& scene, uint32_t light) {
+float light_emit_density(const Scene& scene, uint32_t light, Vec3 w_from) {
     const Light& l = scene.lights[light];
-    if ((l.type != LightType::AreaMesh && l.type != LightType::AreaSphere) || !(l.area > 0) ||
-        scene.light_selection.empty())
-        return 0.0f;
-    // sample_emission: the light by power, a point uniform in area, a cosine-distributed direction.
-    return scene.light_selection.pmf(light) / (kPi * l.area);
+    if (scene.light_selection.empty()) return 0.0f;
+    const float p_select = scene.light_selection.pmf(light);
+    switch (l.type) {
+        case LightType::AreaMesh:
+        case LightType::AreaSphere:
+            // sample_emission: the light by power, a point uniform in area, a cosine-distributed direction.
+            return l.area > 0 ? p_select / (kPi * l.area) : 0.0f;
+        case LightType::Envmap:
+            // The direction by the map's density, an origin uniform on the disk of area pi R^2.
+            return p_select * envmap_pdf(*l.envmap, w_from) / bounding_disk_area(scene);
+        case LightType::Constant:
+            return p_select / (4 * kPi * bounding_disk_area(scene));
+        default:
+            return 0.0f;  // delta lights: their chains are not connected
+    }
 }
 
 float estimate_paths_per_vertex(const CausticTracer& tracer, uint64_t seed, uint64_t first, uint64_t count) {

@@ -19,7 +19,9 @@
 // both and cancels:
 //   p_connect / p_path = n * p_e * cos_y(chain) * d^2 / (p_x * p_y * cos_y(x))
 // p_e: the light tracer's density of the light point per area and of the emitted direction per
-// projected solid angle (p_select / (pi area) for a Lambertian area light); cos_y: geometric cosines at
+// projected solid angle (p_select / (pi area) for a Lambertian area light; for the environment, the
+// direction's density per steradian over the area of the disk its paths start on, light_emit_density);
+// cos_y: geometric cosines at
 // y towards the chain and towards x; d = |x - y|; p_x, p_y: the path tracer's densities (per
 // steradian) of the directions x -> y and y -> chain (guided where the path tracer guides there);
 // n = light paths per pool vertex, i.e. how many light paths one connection stands for. n is estimated
@@ -79,7 +81,7 @@ inline float connection_path_weight(float paths_per_vertex, float emit_density, 
 class CausticTracer;
 struct CausticSplat;
 // n of connections.h: light paths per pool vertex, from light paths [first, first + count) of their own;
-// 0 where none of them reaches a surface through a specular chain from an area light.
+// 0 where none of them reaches a surface through a specular chain from an area light or the environment.
 float estimate_paths_per_vertex(const CausticTracer& tracer, uint64_t seed, uint64_t first, uint64_t count);
 
 // Traces `paths_per_sample` light paths for each sample index in [s0, s1) (the light paths of sample s are
@@ -92,7 +94,11 @@ uint64_t build_pools(const CausticTracer& tracer, const Guide* guide, uint64_t s
 ConnectionPool pool_of(const LightVertexPools& pools, int s);
 
 // p_e of light `light` for the light tracer's emission sampling (emission.h): p_select / (pi area)
-// for mesh and sphere area lights; 0 for other lights (whose chains are not connected).
-float light_emit_density(const Scene& scene, uint32_t light);
+// for mesh and sphere area lights; for the environment, whose light arrives from w_from (world, unit,
+// pointing to the sky), p_select p(w_from) / (pi R^2), p the emission's density of directions per
+// steradian and pi R^2 the disk its paths start on (bounding_disk_area): the same ratio, because a
+// specular chain conserves etendue, so that the generalised geometry terms of the two strategies still
+// cancel (DESIGN 6.8). 0 for delta lights (whose chains are not connected).
+float light_emit_density(const Scene& scene, uint32_t light, Vec3 w_from);
 
 }  // namespace iris

@@ -140,7 +140,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             if (!prev_delta && use_nee)
                 w = power_heuristic(prev_pdf, light_pdf(scene, uint32_t(light_index), prim, prev_p, p, n, ray.d));
             else if (prev_delta && ps.connect && last_y.joinable)
-                w = connection_path_weight(ps.paths_per_vertex, light_emit_density(scene, uint32_t(light_index)),
+                w = connection_path_weight(ps.paths_per_vertex, light_emit_density(scene, uint32_t(light_index), ray.d),
                                            last_y.cos_chain, last_y.cos_x, last_y.dist2, last_y.p_x, last_y.p_y);
             L += beta * le * w;
         }
@@ -853,7 +853,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     } else if (opt.caustics != RenderOptions::Caustics::Off && !opt.quiet) {
         std::fprintf(stderr, "render: caustics %s\n",
                      light_possible ? "light-traced (--caustics on)"
-                                    : "not light-traced: no area light reaches a surface through a specular (Dirac) bounce");
+                                    : "not light-traced: no area light or sky reaches a surface through a specular (Dirac) bounce");
     }
     // Light paths per pass of one sample per pixel (an integer, so that the film's count is exact).
     const uint64_t light_paths_per_sample =
@@ -873,7 +873,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     if (opt.connect == RenderOptions::Connect::On && !opt.quiet)
         std::fprintf(stderr, "render: caustic connections %s\n",
                      ps.connect ? ("on (" + std::to_string(pool_paths_per_sample) + " light paths per sample pass)").c_str()
-                                : "off: no light path reaches a surface through a specular chain from an area light");
+                                : "off: no light path reaches a surface through a specular chain from an area light or the sky");
     Progress progress("render", timed ? uint64_t(opt.time * 1000) : uint64_t(part ? opt.sample_end - opt.sample_begin : target_spp) * tile_count, opt.quiet);
 
     // Hybrid caches: what the guided vertices receive (only while the chosen setting guides).
