@@ -949,8 +949,9 @@ private:
         IgnoreRule ignore;
         // Name an unsupported BSDF plugin first: wrappers such as bumpmap or mask nest a <bsdf>, which
         // would otherwise be reported as a misplaced element.
-        static const char* const kSupported[] = {"twosided",  "diffuse",        "roughdiffuse", "dielectric", "thindielectric",
-                                                 "conductor", "roughconductor", "plastic",      "roughplastic", "ward"};
+        static const char* const kSupported[] = {"twosided",       "diffuse",   "roughdiffuse",   "dielectric",
+                                                 "thindielectric", "conductor", "roughconductor", "plastic",
+                                                 "roughplastic",   "ward"};
         if (std::find(std::begin(kSupported), std::end(kSupported), t) == std::end(kSupported))
             fail(src, p.line, "unsupported plugin " + quote(t) + " (bsdf)");
         if (t == "twosided") {

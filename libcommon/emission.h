@@ -19,7 +19,7 @@ struct EmissionSample {
     uint32_t light = 0;
 };
 
-// The area pi R^2 (m^2, scene units) of the disk that the distant lights' (environment, directional)
+// The area pi R^2 (scene units squared) of the disk that the distant lights' (environment, directional)
 // light paths start on: R the radius of the scene's bounding sphere.
 float bounding_disk_area(const Scene& scene);
 

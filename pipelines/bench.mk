@@ -75,9 +75,12 @@ ref_spp = $(or $(REF_SPP_$(1)),$(REF_SPP))
 # against an unguided reference of the scene at the same scale where one exists already (the REF_SPP one,
 # or any $(REF_DIR)/<name>-s<SCALE>-unguided-*.exr; nothing is rendered for the check).
 REF_GUIDED ?=
+# REF_CONNECT=auto: the guided references with caustic connections weighed by the pilot (default off: see
+# scripts/bench.py reference), for scenes where without them a reference stays too noisy to judge by.
+REF_CONNECT ?= off
 ref_unguided = $(REF_DIR)/$(1)-s$(SCALE)-$(call ref_spp,$(1))spp.exr
-ref_of = $(if $(REF_GUIDED),$(REF_DIR)/$(1)-s$(SCALE)-guided-$(REF_GUIDED)s.exr,$(call ref_unguided,$(1)))
-ref_args = $(if $(REF_GUIDED),--guided-seconds $(REF_GUIDED),--spp $(call ref_spp,$(1)))
+ref_of = $(if $(REF_GUIDED),$(REF_DIR)/$(1)-s$(SCALE)-guided-$(REF_GUIDED)s$(if $(filter auto,$(REF_CONNECT)),-connect).exr,$(call ref_unguided,$(1)))
+ref_args = $(if $(REF_GUIDED),--guided-seconds $(REF_GUIDED) --connect $(REF_CONNECT),--spp $(call ref_spp,$(1)))
 ref_check_file = $(firstword $(wildcard $(call ref_unguided,$(1)) $(REF_DIR)/$(1)-s$(SCALE)-unguided-*.exr))
 ref_check = $(if $(and $(REF_GUIDED),$(call ref_check_file,$(1))),--check-reference $(call ref_check_file,$(1)))
 REFS := $(foreach s,$(SCENES_ALL),$(call ref_of,$(call name_of,$(s))))
@@ -89,7 +92,7 @@ PARAM_SCENE ?= cbox_kugeln
 PARAM_BUDGET ?= 24
 PARAM_STUDY ?= PATHS=62500,125000,250000,500000;COUNT=1000,4000,16000;K=250,500,1000,2000;RES=8,16,32;SIGMA=0,0.75,1.5
 
-.PHONY: plots quick full references runs report params targets hybrid product sampler guide-depth connect-choice ab FORCE
+.PHONY: plots quick full references runs report params targets glazed hybrid product sampler guide-depth connect-choice ab FORCE
 # The pixel sampler (render --sampler sobol, the default) against independent samples, unguided and guided,
 # from the spread across 6 seeds at 64 spp on the ring, the glass spheres and the plain box. Report
 # docs/benchmarks/sampler.md (~12 min).
@@ -131,6 +134,13 @@ product:
 # unguided references of 1024 spp, budgets 15/30 s, 3 repeats; the two modes the targets compare. Reports
 # docs/benchmarks/targets-connect.md and targets-plain.md (~40 min + references). targets-caustics.md is
 # the same measurement before caustic connections (420-s references, 15/30/60 s, 3 repeats).
+# The room lit through a glazed window (scenes/window_room/window_room_glazed.xml: a thin pane that
+# shadow rays do not pass, the sky's light a caustic everywhere in the room) at its own 320 x 240, 30/60 s,
+# 2 repeats, against a guided reference of 600 s with connections. Report docs/benchmarks/glazed-room.md
+# (~20 min with its reference).
+glazed:
+	@$(MAKE) -f pipelines/bench.mk TIER=glazed SEEDS=scenes SCENES_ALL='window_room_glazed:window_room/window_room_glazed.xml' \
+	  SCALE=1 REF_GUIDED=600 REF_CONNECT=auto BUDGETS=30,60 MODES=nee+bsdf,auto REPEATS=2 REPORT=glazed-room report
 targets:
 	@$(MAKE) -f pipelines/bench.mk TIER=quick REF_GUIDED=300 BUDGETS=30,60 MODES=nee+bsdf,auto REPEATS=2 \
 	  ONLY='cbox_kugeln cbox_spiegelboxen bidir ring' REPORT=targets-connect report
@@ -148,7 +158,7 @@ params: $(call ref_of,$(PARAM_SCENE))
 runs: $(RESULTS)
 
 # The settings given on make's command line, quoted in the report's command.
-GIVEN := $(foreach v,SCALE BUDGETS MODES REF_SPP REF_GUIDED REPEATS PIPELINE ONLY REPORT,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
+GIVEN := $(foreach v,SCALE BUDGETS MODES REF_SPP REF_GUIDED REF_CONNECT REPEATS PIPELINE ONLY REPORT,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
 report: $(RESULTS)
 	$(PYTHON) scripts/bench.py report --tier $(TIER) --runs $(RUNS) -o docs/benchmarks/$(REPORT).md --assets docs/benchmarks/$(REPORT) $(GIVEN)
 

@@ -31,16 +31,21 @@ BIN = os.environ.get("IRIS_BIN", "build/bin")
 
 
 def film_size(scene):
-    """Width and height of the scene's hdrfilm (Mitsuba's defaults 768 x 576)."""
-    root = ET.parse(scene).getroot()
-    w, h = 768, 576
-    for film in root.iter("film"):
-        for e in film.findall("integer"):
-            if e.get("name") == "width":
-                w = int(e.get("value"))
-            if e.get("name") == "height":
-                h = int(e.get("value"))
-    return w, h
+    """Width and height of the scene's film (Mitsuba's defaults 768 x 576), also where it is in a file the
+    scene <include>s (paths relative to the including file, as the loader reads them)."""
+    size = [768, 576]
+
+    def visit(path):
+        for e in ET.parse(path).getroot().iter():
+            if e.tag == "include":
+                visit(os.path.join(os.path.dirname(path), e.get("filename")))
+            elif e.tag == "film":
+                for i in e.findall("integer"):
+                    if i.get("name") in ("width", "height"):
+                        size[i.get("name") == "height"] = int(i.get("value"))
+
+    visit(scene)
+    return size[0], size[1]
 
 
 def scaled_resolution(scene, scale):
@@ -105,6 +110,8 @@ def cmd_reference(a):
     # manifest says whether the existing reference still matches the scene's content and settings.
     m = read_manifest(a.output + ".manifest")
     kind = "guided %gs" % a.guided_seconds if a.guided_seconds else "unguided %d spp" % a.spp
+    if a.guided_seconds and a.connect != "off":
+        kind += ", connections " + a.connect
     if (os.path.exists(a.output) and m.get("scene_fingerprint") == scene_fingerprint(a.scene)
             and m.get("resolution") == "%dx%d" % (w, h) and m.get("kind", "unguided %s spp" % m.get("spp")) == kind):
         os.utime(a.output)
@@ -116,14 +123,17 @@ def cmd_reference(a):
         # on the caustic scenes, and its variance layers let the report take that noise out of every relMSE.
         # Guided and unguided renders agree per pixel (tests/pipeline/test_guiding_unbiased.cpp); the report
         # also checks the reference against an unguided one of the same scene and size (runs --check-reference).
-        # Without caustic connections (render --connect off), so that the reference does not rest on the
-        # newest estimator it may be judging. References take independent samples (--sampler independent):
+        # Without caustic connections (render --connect off, unless --connect says otherwise), so that the
+        # reference does not rest on the newest estimator it may be judging; where the paths they join are
+        # most of the image (a room lit through glass), a reference without them stays too noisy to judge
+        # anything, and --connect auto lets the pilot weigh them as in the renders.
+        # References take independent samples (--sampler independent):
         # only then are their variance layers unbiased estimates of their noise, which the report removes.
         prep = os.path.splitext(a.output)[0] + ".prep"
         run(["make", "-s", "-f", "pipelines/guided.mk", "SCENE=" + a.scene, "OUT=" + prep, "BIN=" + BIN,
              "SEED=1000004", "atlas"])
         cmd = [BIN + "/render", a.scene, "--atlas", os.path.join(prep, "atlas.h5"), "--mode", "auto",
-               "--caustics", "auto", "--connect", "off", "--time", "%g" % a.guided_seconds, "--resolution", "%dx%d" % (w, h),
+               "--caustics", "auto", "--connect", a.connect, "--time", "%g" % a.guided_seconds, "--resolution", "%dx%d" % (w, h),
                "--seed", "1000005", "--variance", "--sampler", "independent", "-q", "-o", a.output]
     else:
         cmd = [BIN + "/render", a.scene, "-o", a.output, "--mode", "nee+bsdf", "--spp", str(a.spp),
@@ -635,6 +645,8 @@ def main():
     r.add_argument("--spp", type=int, default=0, help="an unguided reference of this many spp")
     r.add_argument("--guided-seconds", type=float, default=0,
                    help="instead: a guided reference (MODE=auto, an atlas of its own seeds) of this many seconds")
+    r.add_argument("--connect", choices=["off", "auto"], default="off",
+                   help="caustic connections in a guided reference (default off)")
     r.add_argument("-o", "--output", required=True)
     r.set_defaults(func=cmd_reference)
     s = sub.add_parser("runs")
