@@ -299,6 +299,7 @@ def cmd_runs(a):
                      expected=(ab.get("relmse_reference_noise") or 0) + (ba.get("relmse_reference_noise") or 0))
     info = dict(scene=a.scene, name=a.name, resolution=res, reference=a.reference, reference_check=check,
                 reference_mode=ref_meta.get("iris:mode", "?"),
+                reference_connections="--connect auto" in ref_meta.get("iris:command_line", ""),
                 reference_spp=ref_meta.get("iris:spp"), prep=prep, prep_parts=prep_parts,
                 atlas_bytes=os.path.getsize(fixed["atlas"]) if guided_modes else 0,
                 pipeline_vars=a.pipeline_vars, rows=rows, repeats=a.repeats, date=time.strftime("%Y-%m-%d"),
@@ -521,6 +522,8 @@ def cmd_report(a):
         budgets = sorted({x["budget"] for x in r["rows"]})
         by = {(x["mode"], x["budget"]): x for x in rows}
         ref_kind = "guided" if r.get("reference_mode", "nee+bsdf") != "nee+bsdf" else "unguided"
+        if r.get("reference_connections"):
+            ref_kind += " (caustic connections weighed by its pilot)"
         lines += ["### `%s` (%s, %s reference of %s spp)" % (name, r["resolution"], ref_kind, r["reference_spp"]), ""]
         c = r.get("reference_check")
         if c:
