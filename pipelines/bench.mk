@@ -137,10 +137,13 @@ product:
 # The room lit through a glazed window (scenes/window_room/window_room_glazed.xml: a thin pane that
 # shadow rays do not pass, the sky's light a caustic everywhere in the room) at its own 320 x 240, 30/60 s,
 # 2 repeats, against a guided reference of 600 s with connections. Report docs/benchmarks/glazed-room.md
-# (~20 min with its reference).
+# (~20 min with its reference). ROOM=window_room: the same for the room with the open window
+# (docs/benchmarks/window-room-connect.md).
+ROOM ?= window_room_glazed
 glazed:
-	@$(MAKE) -f pipelines/bench.mk TIER=glazed SEEDS=scenes SCENES_ALL='window_room_glazed:window_room/window_room_glazed.xml' \
-	  SCALE=1 REF_GUIDED=600 REF_CONNECT=auto BUDGETS=30,60 MODES=nee+bsdf,auto REPEATS=2 REPORT=glazed-room report
+	@$(MAKE) -f pipelines/bench.mk TIER=glazed SEEDS=scenes SCENES_ALL='$(ROOM):window_room/$(ROOM).xml' \
+	  SCALE=1 REF_GUIDED=600 REF_CONNECT=auto BUDGETS=30,60 MODES=nee+bsdf,auto REPEATS=2 \
+	  REPORT=$(if $(filter window_room_glazed,$(ROOM)),glazed-room,$(subst _,-,$(ROOM))-connect) report
 targets:
 	@$(MAKE) -f pipelines/bench.mk TIER=quick REF_GUIDED=300 BUDGETS=30,60 MODES=nee+bsdf,auto REPEATS=2 \
 	  ONLY='cbox_kugeln cbox_spiegelboxen bidir ring' REPORT=targets-connect report
@@ -158,7 +161,7 @@ params: $(call ref_of,$(PARAM_SCENE))
 runs: $(RESULTS)
 
 # The settings given on make's command line, quoted in the report's command.
-GIVEN := $(foreach v,SCALE BUDGETS MODES REF_SPP REF_GUIDED REF_CONNECT REPEATS PIPELINE ONLY REPORT,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
+GIVEN := $(foreach v,ROOM SCALE BUDGETS MODES REF_SPP REF_GUIDED REF_CONNECT REPEATS PIPELINE ONLY REPORT,$(if $(filter command line,$(origin $(v))),$(v)='$($(v))'))
 report: $(RESULTS)
 	$(PYTHON) scripts/bench.py report --tier $(TIER) --runs $(RUNS) -o docs/benchmarks/$(REPORT).md --assets docs/benchmarks/$(REPORT) $(GIVEN)
 
