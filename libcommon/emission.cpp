@@ -12,11 +12,11 @@ namespace {
 
 // An origin for a photon travelling along d from outside the scene: uniform on a disk of the bounding
 // sphere's radius R, perpendicular to d, one radius before the centre. Every line along d that meets
-// the scene crosses this disk, whose area is pi R^2 (the factor in light_power of the environment and
-// directional lights).
+// the scene crosses this disk, whose area is pi R^2 (bounding_disk_area, lights.h: the factor in
+// light_power of the environment and directional lights).
 Vec3 disk_origin(const Scene& scene, Vec3 d, Vec2 u) {
     Vec3 c = (scene.bounds_min + scene.bounds_max) * 0.5f;
-    float r = 0.5f * length(scene.bounds_max - scene.bounds_min);
+    float r = float(scene_radius(scene));
     if (!(r > 0)) r = 1;
     Frame f(d);
     Vec2 disk = sample_concentric_disk(u);
@@ -24,12 +24,6 @@ Vec3 disk_origin(const Scene& scene, Vec3 d, Vec2 u) {
 }
 
 }  // namespace
-
-float bounding_disk_area(const Scene& scene) {
-    float r = 0.5f * length(scene.bounds_max - scene.bounds_min);
-    if (!(r > 0)) r = 1;
-    return kPi * r * r;
-}
 
 bool sample_emission(const Scene& scene, float u_sel, Vec2 u_pos, Vec2 u_dir, EmissionSample* s) {
     if (scene.light_selection.empty()) return false;
@@ -105,7 +99,7 @@ bool sample_emission(const Scene& scene, float u_sel, Vec2 u_pos, Vec2 u_dir, Em
             s->d = -w;
             s->p = disk_origin(scene, s->d, u_pos);
             s->n = Vec3(0);
-            s->flux = envmap_eval(*l.envmap, w) * (bounding_disk_area(scene) / (pdf * p_sel));
+            s->flux = envmap_eval(*l.envmap, w) * (float(bounding_disk_area(scene)) / (pdf * p_sel));
             return is_finite(s->flux) && !is_black(s->flux);
         }
     }

@@ -19,10 +19,6 @@ struct EmissionSample {
     uint32_t light = 0;
 };
 
-// The area pi R^2 (scene units squared) of the disk that the distant lights' (environment, directional)
-// light paths start on: R the radius of the scene's bounding sphere.
-float bounding_disk_area(const Scene& scene);
-
 // u_sel chooses the light, u_pos a point on it, u_dir a direction. False if the scene has no light
 // with power.
 bool sample_emission(const Scene& scene, float u_sel, Vec2 u_pos, Vec2 u_dir, EmissionSample* s);

@@ -138,28 +138,6 @@ double mesh_area(const Mesh& m) {
     return a;
 }
 
-// Radius of the scene's bounding sphere, from scene.bounds_* if set, else from the geometry.
-double scene_radius(const Scene& scene) {
-    Vec3 lo = scene.bounds_min, hi = scene.bounds_max;
-    bool valid = is_finite(lo) && is_finite(hi) && lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z;
-    if (!valid) {
-        lo = Vec3(kInf);
-        hi = Vec3(-kInf);
-        for (const Mesh& m : scene.meshes)
-            for (Vec3 p : m.positions) {
-                lo = vmin(lo, p);
-                hi = vmax(hi, p);
-            }
-        for (const Sphere& s : scene.spheres) {
-            float r = std::abs(s.radius);
-            lo = vmin(lo, s.center - Vec3(r));
-            hi = vmax(hi, s.center + Vec3(r));
-        }
-        if (!(lo.x <= hi.x)) return 0.0;  // no geometry
-    }
-    Vec3d ext = sub(to_d(hi), to_d(lo));
-    return 0.5 * std::sqrt(dot_d(ext, ext));
-}
 
 // Mesh triangles that subtend at least kSolidAngleSampling steradians from the reference point are
 // sampled uniformly in solid angle (Arvo 1995), the rest uniformly by area. By area the density per
@@ -189,9 +167,9 @@ struct TriangleView {
 // A h / d^3. (Rounding at the bound may tip a triangle either way; sample_light and light_pdf decide
 // alike, so the densities still agree.)
 inline bool maybe_near(const Light& l, uint32_t tri, Vec3 ref) {
-    const Light::TriangleNear& b = l.triangle_near[tri];
+    const Light::Triangle& b = l.triangle_info[tri];
     const Vec3 dc = ref - b.centre;
-    const float h = dot(l.triangle_normals[tri], dc);
+    const float h = dot(b.normal, dc);
     if (!(h > 0)) return false;                 // behind the emitting side: area sampling rejects it
     if (h * h > b.area_over_min) return false;  // d >= h, so A h / d^3 <= A / h^2 < kMinSolidAngle
     const float d = std::max(std::sqrt(dot(dc, dc)) - b.radius, h);
@@ -291,7 +269,7 @@ bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2
     if (l.triangles.empty() || !(l.area > 0)) return false;
     const Mesh& m = scene.meshes[l.shape];
     uint32_t tri = l.triangles.sample(u_tri);
-    const Vec3 n = l.triangle_normals[tri];
+    const Vec3 n = l.triangle_info[tri].normal;
     if (n.x == 0 && n.y == 0 && n.z == 0) return false;  // unreachable: zero-area triangles have weight 0
     if (maybe_near(l, tri, ref)) {
         const TriangleView view = view_triangle(m, tri, n, ref);
@@ -320,9 +298,9 @@ bool sample_mesh(const Scene& scene, const Light& l, Vec3 ref, float u_tri, Vec2
 // Conditional density (per steradian, without selection) of the mesh sampler at point p, normal n, of
 // triangle tri.
 float mesh_density(const Scene& scene, const Light& l, uint32_t tri, Vec3 ref, Vec3 p, Vec3 n) {
-    if (l.triangles.empty() || tri >= l.triangle_normals.size()) return 0.0f;
+    if (l.triangles.empty() || tri >= l.triangle_info.size()) return 0.0f;
     if (maybe_near(l, tri, ref)) {
-        const TriangleView view = view_triangle(scene.meshes[l.shape], tri, l.triangle_normals[tri], ref);
+        const TriangleView view = view_triangle(scene.meshes[l.shape], tri, l.triangle_info[tri].normal, ref);
         if (view.spherical) return spherical_density(l, tri, view);
     }
     return area_density(see_area_point(ref, p, n), l.area);
@@ -422,6 +400,28 @@ void set_point_sample(Vec3 position, Vec3 wi, double dist, RGB radiance, LightSa
 }
 
 }  // namespace
+
+double scene_radius(const Scene& scene) {
+    Vec3 lo = scene.bounds_min, hi = scene.bounds_max;
+    bool valid = is_finite(lo) && is_finite(hi) && lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z;
+    if (!valid) {
+        lo = Vec3(kInf);
+        hi = Vec3(-kInf);
+        for (const Mesh& m : scene.meshes)
+            for (Vec3 p : m.positions) {
+                lo = vmin(lo, p);
+                hi = vmax(hi, p);
+            }
+        for (const Sphere& s : scene.spheres) {
+            float r = std::abs(s.radius);
+            lo = vmin(lo, s.center - Vec3(r));
+            hi = vmax(hi, s.center + Vec3(r));
+        }
+        if (!(lo.x <= hi.x)) return 0.0;  // no geometry
+    }
+    Vec3d ext = sub(to_d(hi), to_d(lo));
+    return 0.5 * std::sqrt(dot_d(ext, ext));
+}
 
 std::shared_ptr<const EnvMap> make_envmap(int width, int height, std::vector<RGB> texels, const Transform& to_world) {
     if (width <= 0 || height <= 0) throw std::invalid_argument("environment map of size " + std::to_string(width) +
@@ -532,18 +532,15 @@ RGB light_power(const Scene& scene, const Light& l) {
         case LightType::Constant: {
             // The flux through the scene's bounding sphere of radius R: a disk of area pi R^2 facing
             // each direction, times 4 pi sr of incoming directions (as pbrt and Mitsuba estimate it).
-            double radius = scene_radius(scene);
-            return l.radiance * float(kPiD * radius * radius * 4.0 * kPiD);
+            return l.radiance * float(bounding_disk_area(scene) * 4.0 * kPiD);
         }
         case LightType::Envmap: {
             // As for the constant environment, with the map's integral over the sphere for 4 pi L.
-            double radius = scene_radius(scene);
-            return l.envmap ? l.envmap->integral * float(kPiD * radius * radius) : RGB(0);
+            return l.envmap ? l.envmap->integral * float(bounding_disk_area(scene)) : RGB(0);
         }
         case LightType::Directional: {
             // The flux through a disk of the bounding sphere's radius facing the light.
-            double radius = scene_radius(scene);
-            return l.radiance * float(kPiD * radius * radius);
+            return l.radiance * float(bounding_disk_area(scene));
         }
         case LightType::Spot: {
             // 2 pi times the integral of falloff(theta) sin(theta) dtheta: 1 - cos(beam) over the full
@@ -571,22 +568,24 @@ void lights_prepare(Scene& scene) {
                 std::vector<float> areas(m.triangle_count());
                 for (uint32_t t = 0; t < m.triangle_count(); ++t) areas[t] = float(triangle_area(m, t));
                 l.triangles = Distribution1D(areas);
-                // Per triangle: its normal, and what maybe_near's bound needs (centroid, the centroid's
-                // largest distance to a vertex, area over the threshold).
-                l.triangle_normals.assign(m.triangle_count(), Vec3(0.0f));
-                l.triangle_near.assign(m.triangle_count(), Light::TriangleNear{});
+                // Per triangle (Light::Triangle): its normal, and what maybe_near's bound needs (centroid,
+                // the centroid's largest distance to a vertex, area over the threshold).
+                l.triangle_info.assign(m.triangle_count(), Light::Triangle{});
                 for (uint32_t t = 0; t < m.triangle_count(); ++t) {
+                    Light::Triangle& info = l.triangle_info[t];
                     const uint32_t* idx = &m.indices[3 * size_t(t)];
                     const Vec3d p[3] = {to_d(m.positions[idx[0]]), to_d(m.positions[idx[1]]), to_d(m.positions[idx[2]])};
                     const Vec3d centre = scale(add(add(p[0], p[1]), p[2]), 1.0 / 3.0);
                     double r2 = 0;
                     for (const Vec3d& q : p) r2 = std::max(r2, dot_d(sub(q, centre), sub(q, centre)));
-                    l.triangle_near[t] = {to_f(centre), float(std::sqrt(r2)), float(double(areas[t]) / kMinSolidAngle)};
+                    info.centre = to_f(centre);
+                    info.radius = float(std::sqrt(r2));
+                    info.area_over_min = float(double(areas[t]) / kMinSolidAngle);
                     const Vec3d c = triangle_cross(m, t);
                     const double len = std::sqrt(dot_d(c, c));
                     if (!(len > 0)) continue;
                     const Vec3 n = to_f(scale(c, 1.0 / len));
-                    l.triangle_normals[t] = m.flip_normals ? -n : n;
+                    info.normal = m.flip_normals ? -n : n;
                 }
                 l.area = float(l.triangles.total());
                 break;

@@ -60,19 +60,18 @@ struct Light {
     Vec3 position;         // Point/Spot: position
     float area = 0;        // AreaMesh / AreaSphere: total surface area (m^2, world units squared)
     Distribution1D triangles;  // AreaMesh: triangle selection in proportion to area
-    // AreaMesh: each triangle's unit normal (flip_normals applied; zero for a zero-area triangle), computed
-    // once by lights_prepare from the double cross product instead of once per light sample (the same
-    // value sample_mesh computed each time, so the images do not change).
-    std::vector<Vec3> triangle_normals;
-    // AreaMesh: per triangle what the cheap test needs that keeps far triangles on area sampling
-    // (lights.cpp, maybe_near): its centroid, the centroid's largest distance to a vertex (world
-    // units), and its area over the solid-angle sampler's threshold (world units squared per sr).
-    struct TriangleNear {
+    // AreaMesh: per triangle, computed once by lights_prepare, what a light sample reads of it in one
+    // record: its unit normal (flip_normals applied; zero for a zero-area triangle; from the double
+    // cross product), and what the cheap test needs that keeps far triangles on area sampling
+    // (lights.cpp, maybe_near): its centroid, the centroid's largest distance to a vertex (world units),
+    // and its area over the solid-angle sampler's threshold (world units squared per sr).
+    struct Triangle {
+        Vec3 normal;
         Vec3 centre;
         float radius = 0;
         float area_over_min = 0;
     };
-    std::vector<TriangleNear> triangle_near;
+    std::vector<Triangle> triangle_info;
     float sampling_weight = 1; // Mitsuba's `samplingWeight` (multiplies the selection weight)
 };
 
@@ -100,6 +99,15 @@ RGB light_emitted(const Light& l, Vec3 n, Vec3 w);
 // pi R^2 E; with R the radius of the scene's bounding sphere (from scene.bounds_*, or from the meshes and spheres
 // when the bounds are unset).
 RGB light_power(const Scene& scene, const Light& l);
+
+// Radius R of the scene's bounding sphere (scene.bounds_* if set, else from the geometry; 0 without
+// any), and the area pi R^2 of the disk that the distant lights' (environment, directional) light paths
+// start on (emission.h): their power is the flux through it, and connections weigh their paths by it.
+double scene_radius(const Scene& scene);
+inline double bounding_disk_area(const Scene& scene) {
+    const double r = scene_radius(scene);
+    return 3.14159265358979323846 * r * r;
+}
 
 // Builds per-light tables (triangle CDFs, areas), scene.environment_light, and the selection table
 // scene.light_selection in proportion to luminance(power) * sampling_weight (zero power: never chosen).

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 
-#include "libcommon/emission.h"
 #include "libcommon/lights.h"
 #include "tools/render/caustics.h"
 
@@ -20,10 +19,13 @@ float light_emit_density(const Scene& scene, uint32_t light, Vec3 w_from) {
             // sample_emission: the light by power, a point uniform in area, a cosine-distributed direction.
             return l.area > 0 ? p_select / (kPi * l.area) : 0.0f;
         case LightType::Envmap:
-            // The direction by the map's density, an origin uniform on the disk of area pi R^2.
-            return p_select * envmap_pdf(*l.envmap, w_from) / bounding_disk_area(scene);
-        case LightType::Constant:
-            return p_select / (4 * kPi * bounding_disk_area(scene));
+        case LightType::Constant: {
+            // The direction by the map's density (uniform for the constant sky), an origin uniform on
+            // the disk of area pi R^2.
+            const double disk = bounding_disk_area(scene);
+            const float p_dir = l.type == LightType::Envmap ? envmap_pdf(*l.envmap, w_from) : 1.0f / (4 * kPi);
+            return disk > 0 ? float(p_select * p_dir / disk) : 0.0f;
+        }
         default:
             return 0.0f;  // delta lights: their chains are not connected
     }
