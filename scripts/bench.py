@@ -36,7 +36,11 @@ def film_size(scene):
     size = [768, 576]
 
     def visit(path):
-        for e in ET.parse(path).getroot().iter():
+        try:
+            root = ET.parse(path).getroot()
+        except (OSError, ET.ParseError) as e:
+            sys.exit("bench: cannot read the film size from %s: %s" % (path, e))
+        for e in root.iter():
             if e.tag == "include":
                 visit(os.path.join(os.path.dirname(path), e.get("filename")))
             elif e.tag == "film":
