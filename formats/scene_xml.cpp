@@ -949,9 +949,9 @@ private:
         IgnoreRule ignore;
         // Name an unsupported BSDF plugin first: wrappers such as bumpmap or mask nest a <bsdf>, which
         // would otherwise be reported as a misplaced element.
-        static const char* const kSupported[] = {"twosided",       "diffuse",   "roughdiffuse",   "dielectric",
-                                                 "thindielectric", "conductor", "roughconductor", "plastic",
-                                                 "roughplastic",   "ward"};
+        static const char* const kSupported[] = {"twosided",       "diffuse",         "roughdiffuse", "dielectric",
+                                                 "thindielectric", "roughdielectric", "conductor",    "roughconductor",
+                                                 "plastic",        "roughplastic",    "ward"};
         if (std::find(std::begin(kSupported), std::end(kSupported), t) == std::end(kSupported))
             fail(src, p.line, "unsupported plugin " + quote(t) + " (bsdf)");
         if (t == "twosided") {
@@ -969,6 +969,10 @@ private:
             } else {
                 fail(src, src.line_of(c), "<" + tag + "> is not allowed inside bsdf \"twosided\"");
             }
+            // As in Mitsuba: the wrapper mirrors the front side onto the back, which means nothing for
+            // a surface that lets light through (its back side is the other medium's view of it).
+            if (b.type == BsdfType::Dielectric || b.type == BsdfType::ThinDielectric || b.type == BsdfType::RoughDielectric)
+                fail(src, p.line, "twosided cannot wrap a BSDF that transmits light (dielectric, thindielectric, roughdielectric)");
             b.two_sided = true;
         } else {
             TexParams tex = bsdf_textures(p);
@@ -983,14 +987,25 @@ private:
                 if (get_bool(p, "useFastApprox", false))
                     warn(src, find(p, "useFastApprox")->line,
                          "useFastApprox ignored: iris always evaluates the full Oren-Nayar model");
-            } else if (t == "dielectric" || t == "thindielectric") {
-                b.type = t == "dielectric" ? BsdfType::Dielectric : BsdfType::ThinDielectric;
+            } else if (t == "dielectric" || t == "thindielectric" || t == "roughdielectric") {
+                b.type = t == "dielectric"       ? BsdfType::Dielectric
+                         : t == "thindielectric" ? BsdfType::ThinDielectric
+                                                 : BsdfType::RoughDielectric;
                 b.ior = get_ior(p, "intIOR", "bk7") / get_ior(p, "extIOR", "air");
                 b.specular = spectrum_param(p, tex, "specularReflectance", RGB(1.0f), &b.tex_specular);
                 b.transmittance = spectrum_param(p, tex, "specularTransmittance", RGB(1.0f), &b.tex_transmittance);
+                if (t == "roughdielectric") {
+                    b.distribution = distribution(p);
+                    anisotropic_alpha(p, tex, &b);
+                    // Refraction through an index-matched rough interface goes straight on: a Dirac event
+                    // the microfacet model has no density for.
+                    if (std::abs(b.ior - 1.0f) < 1e-4f)
+                        fail(src, p.line, "roughdielectric: intIOR equals extIOR (an index-matched interface does not scatter)");
+                }
                 ignore = [](const std::string& param) -> const char* {
                     if (param == "diffuseReflectance" || param == "reflectance")
                         return "Mitsuba 0.5 ignores it too (unqueried attribute)";
+                    if (param == "sampleVisible") return "a sampling strategy only; it does not change the result";
                     return nullptr;
                 };
             } else if (t == "conductor" || t == "roughconductor") {

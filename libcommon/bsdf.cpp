@@ -148,6 +148,123 @@ float microfacet_reflection_pdf(const MicrofacetDistribution& d, Vec3 wi, Vec3 h
     return finite_or_max(double(D) * microfacet_g1(d, wi, h) / (4.0 * wi.z));
 }
 
+// ---- rough dielectric -------------------------------------------------------------------------------
+// Walter et al. 2007 ("Microfacet Models for Refraction through Rough Surfaces"), as Mitsuba 0.5's
+// roughdielectric: a microfacet normal m is drawn from the normals visible from wi (on wi's side of the
+// surface), then the path reflects off it with the Fresnel probability F(wi.m) or refracts through it.
+// Works from either side; eta below is the relative IOR of wo's side over wi's (ior entering, 1/ior
+// leaving) for refraction. With h the (generalised) half vector, m = h:
+//   reflection    f |cos_o| = R F D G / (4 |cos_i|)
+//   refraction    f |cos_o| = T (1 - F) D G |wi.h| |wo.h| / (|cos_i| (wi.h + eta wo.h)^2) * s
+// with s = 1 for importance and 1 / eta^2 for radiance (radiance is compressed into the denser medium);
+// the densities are the visible normal's density times the Jacobian of wo against m,
+//   reflection    F D_wi(h) / (4 |wo.h|),   refraction   (1 - F) D_wi(h) eta^2 |wo.h| / (wi.h + eta wo.h)^2.
+
+MicrofacetDistribution dielectric_distribution(const Bsdf& b) {
+    return MicrofacetDistribution(b.distribution, b.alpha_u, b.alpha_v);
+}
+
+// The microfacet normal that takes wi to wo (on the upper side, z > 0), and for refraction the relative
+// IOR eta; false where no microfacet can (on the horizon, or wo on the wrong side of it).
+bool rough_dielectric_half(const Bsdf& b, Vec3 wi, Vec3 wo, Vec3* h, float* eta, bool* reflect) {
+    if (wi.z == 0 || wo.z == 0) return false;
+    *reflect = wi.z * wo.z > 0;
+    *eta = *reflect ? 1.0f : wi.z > 0 ? b.ior : 1.0f / b.ior;
+    // In double: D falls steeply in its tails (Beckmann), and (wi, wo) and (wo, wi) must give the same h.
+    const double e = *eta;
+    double vx = double(wi.x) + e * wo.x, vy = double(wi.y) + e * wo.y, vz = double(wi.z) + e * wo.z;
+    const double len = std::sqrt(vx * vx + vy * vy + vz * vz);
+    if (!(len > 1e-7)) return false;  // (refraction straight through at eta = 1: not a microfacet event)
+    const double sign = vz < 0 ? -1.0 / len : 1.0 / len;
+    const Vec3 v(float(vx * sign), float(vy * sign), float(vz * sign));
+    *h = v;
+    // Both directions must see m from their own side: wi on wi's side of the microsurface, wo on the
+    // same side for reflection and the other side for refraction.
+    const float di = dot(wi, v), dout = dot(wo, v);
+    if (di * wi.z <= 0 || dout * wo.z <= 0) return false;
+    return *reflect ? true : di * dout < 0;
+}
+
+// F at microfacet h for the pair with cosines di = wi.h, dout = wo.h. For a refraction, from the end outside
+// (cosine > 0): the same number whichever end the path starts from, and well conditioned -- where one end
+// grazes the microfacet the other is at the critical angle, where cos_t = sqrt(1 - eta^2 sin^2) loses
+// every digit of float.
+float rough_dielectric_fresnel(const Bsdf& b, float di, float dout) {
+    return fresnel_dielectric(di * dout < 0 && dout > 0 ? dout : di, b.ior);
+}
+
+RGB rough_dielectric_eval(const Bsdf& b, Vec3 wi, Vec3 wo, TransportMode mode) {
+    Vec3 h;
+    float eta;
+    bool reflect;
+    if (!rough_dielectric_half(b, wi, wo, &h, &eta, &reflect)) return RGB(0.0f);
+    const MicrofacetDistribution d = dielectric_distribution(b);
+    const double D = microfacet_d(d, h);
+    if (D == 0) return RGB(0.0f);
+    const double G = double(microfacet_g1(d, wi, h)) * microfacet_g1(d, wo, h);
+    const float di = dot(wi, h), dout = dot(wo, h);
+    const double F = rough_dielectric_fresnel(b, di, dout);
+    if (reflect) return b.specular * finite_or_max(F * D * G / (4.0 * std::abs(wi.z)));
+    const double denom = double(di) + double(eta) * dout;
+    const double scale = mode == TransportMode::Radiance ? 1.0 : double(eta) * eta;
+    return b.transmittance *
+           finite_or_max((1.0 - F) * D * G * std::abs(double(di) * dout) * scale / (std::abs(wi.z) * denom * denom));
+}
+
+float rough_dielectric_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
+    Vec3 h;
+    float eta;
+    bool reflect;
+    if (!rough_dielectric_half(b, wi, wo, &h, &eta, &reflect)) return 0.0f;
+    const MicrofacetDistribution d = dielectric_distribution(b);
+    const double D = microfacet_d(d, h);
+    if (D == 0) return 0.0f;
+    const float di = dot(wi, h), dout = dot(wo, h);
+    // The density of m among the normals visible from wi (wi's side): G1(wi, m) |wi.m| D(m) / |cos_i|.
+    const double visible = microfacet_g1(d, wi, h) * std::abs(double(di)) * D / std::abs(wi.z);
+    const double F = rough_dielectric_fresnel(b, di, dout);
+    if (reflect) return finite_or_max(F * visible / (4.0 * std::abs(dout)));
+    const double denom = double(di) + double(eta) * dout;
+    return finite_or_max((1.0 - F) * visible * double(eta) * eta * std::abs(dout) / (denom * denom));
+}
+
+bool rough_dielectric_sample(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s, TransportMode mode) {
+    if (wi.z == 0) return false;
+    const float side = wi.z > 0 ? 1.0f : -1.0f;
+    // A normal visible from wi's side: from below, the normals m (z > 0) with -wi.m > 0 are those that -wi
+    // (above) sees, with the same density G1 |wi.m| D / |cos_i|.
+    const Vec3 m = microfacet_sample_visible(dielectric_distribution(b), wi * side, u);
+    float cos_t;
+    const float c = dot(wi, m);
+    const float F = fresnel_dielectric(c, b.ior, &cos_t);
+    const bool reflect_m = uc < F;
+    if (reflect_m) {
+        s->wo = reflect_about(wi, m);
+    } else {
+        // Snell about m: e = eta_i / eta_t, wo = (e c + cos_t) m - e wi (cos_t signed: wo leaves on m's far side).
+        const float e = c > 0 ? 1.0f / b.ior : b.ior;
+        s->wo = normalize(m * (e * c + cos_t) - wi * e);
+    }
+    // A reflection off m that leaves below the macro surface (or a refraction that stays above) is lost
+    // (the single-scattering model's energy loss): pdf() gives such a (wi, wo) the other event's density.
+    if (reflect_m != (wi.z * s->wo.z > 0)) return false;
+    // The density from (wi, wo) alone, as bsdf_pdf computes it, so that MIS sees the same number to the
+    // last bit; the weight f |cos_o| / pdf in closed form (D, G1(wi), F and the Jacobian cancel):
+    // R G1(wo, h) for reflection, T G1(wo, h) s / eta^2 for refraction.
+    Vec3 h;
+    float eta;
+    bool reflect;
+    if (!rough_dielectric_half(b, wi, s->wo, &h, &eta, &reflect)) return false;
+    s->pdf = rough_dielectric_pdf(b, wi, s->wo);
+    if (!(s->pdf > 0)) return false;
+    const float g1 = microfacet_g1(dielectric_distribution(b), s->wo, h);
+    s->weight = reflect ? b.specular * g1
+                        : b.transmittance * (mode == TransportMode::Radiance ? g1 / (eta * eta) : g1);
+    s->eta = eta;
+    s->delta = false;
+    return true;
+}
+
 // ---- Ward ----------------------------------------------------------------------------------------------
 
 // The Ward specular term f_s (without cos_o), Mitsuba's three normalisations, in double: the balanced
@@ -194,12 +311,14 @@ double ward_specular_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
 
 // ---- Dispatch on the front side (after the two-sided flip) ---------------------------------------------
 
-RGB eval_front(const Bsdf& b, Vec3 wi, Vec3 wo) {
+RGB eval_front(const Bsdf& b, Vec3 wi, Vec3 wo, TransportMode mode) {
     switch (b.type) {
         case BsdfType::Dielectric:
         case BsdfType::ThinDielectric:
         case BsdfType::Conductor:
             return RGB(0.0f);  // Dirac lobes only
+        case BsdfType::RoughDielectric:
+            return rough_dielectric_eval(b, wi, wo, mode);  // both sides
         default:
             break;
     }
@@ -242,6 +361,7 @@ RGB eval_front(const Bsdf& b, Vec3 wi, Vec3 wo) {
 
 float pdf_front(const Bsdf& b, Vec3 wi, Vec3 wo) {
     if (bsdf_is_delta(b)) return 0.0f;
+    if (b.type == BsdfType::RoughDielectric) return rough_dielectric_pdf(b, wi, wo);
     if (wi.z <= 0 || wo.z <= 0) return 0.0f;
     switch (b.type) {
         case BsdfType::Diffuse:
@@ -275,7 +395,7 @@ float pdf_front(const Bsdf& b, Vec3 wi, Vec3 wo) {
 bool finish_nondelta(const Bsdf& b, Vec3 wi, BsdfSample* s) {
     s->pdf = pdf_front(b, wi, s->wo);
     if (!(s->pdf > 0)) return false;
-    s->weight = eval_front(b, wi, s->wo) / s->pdf;
+    s->weight = eval_front(b, wi, s->wo, TransportMode::Radiance) / s->pdf;  // (reflection only: no eta)
     s->delta = false;
     s->eta = 1.0f;
     return true;
@@ -330,6 +450,8 @@ bool sample_front(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s, Trans
             }
             return true;
         }
+        case BsdfType::RoughDielectric:
+            return rough_dielectric_sample(b, wi, u, uc, s, mode);
         case BsdfType::Conductor: {
             if (wi.z <= 0) return false;
             s->wo = reflect_normal(wi);
@@ -481,13 +603,13 @@ void bsdf_prepare(Bsdf& b) {
         b.fdr_int = fresnel_diffuse_reflectance(1.0f / b.ior);
 }
 
-RGB bsdf_eval(const Bsdf& b, Vec3 wi, Vec3 wo, TransportMode) {
+RGB bsdf_eval(const Bsdf& b, Vec3 wi, Vec3 wo, TransportMode mode) {
     // twosided: the back side is the mirror image of the front (Mitsuba flips the z components).
     if (b.two_sided && wi.z < 0) {
         wi.z = -wi.z;
         wo.z = -wo.z;
     }
-    return eval_front(b, wi, wo);
+    return eval_front(b, wi, wo, mode);
 }
 
 float bsdf_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
@@ -499,7 +621,8 @@ float bsdf_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
 }
 
 float bsdf_guidable_share(const Bsdf& b, Vec3 wi) {
-    if (bsdf_is_delta(b)) return 0.0f;
+    // A cache's map covers one hemisphere: it cannot stand in for a lobe that also refracts.
+    if (bsdf_is_delta(b) || bsdf_transmits(b)) return 0.0f;
     if (b.two_sided && wi.z < 0) wi.z = -wi.z;
     return 1.0f - coat_share(b, wi);
 }
@@ -509,6 +632,7 @@ float bsdf_guidable_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
         wi.z = -wi.z;
         wo.z = -wo.z;
     }
+    if (bsdf_transmits(b)) return 0.0f;
     if (!layered(b)) return pdf_front(b, wi, wo);
     if (wi.z <= 0 || wo.z <= 0) return 0.0f;
     return (1.0f - coat_share(b, wi)) * cosine_pdf(wo);

@@ -24,6 +24,7 @@ enum class BsdfType : uint8_t {
     RoughDiffuse,    // Oren-Nayar (full model), `reflectance`, `alpha` (sigma = alpha / sqrt 2 as in Mitsuba)
     Dielectric,      // smooth glass: Fresnel reflection + refraction, `intIOR`/`extIOR`
     ThinDielectric,  // a thin pane of smooth glass (`thindielectric`): Fresnel reflection, or straight through
+    RoughDielectric, // microfacet glass (Walter et al. 2007; Beckmann / GGX): reflects and refracts, either side
     Conductor,       // smooth metal: conductor Fresnel with complex IOR `eta`, `k`
     RoughConductor,  // microfacet metal (Beckmann / GGX, isotropic or anisotropic)
     Plastic,         // smooth dielectric coating over a diffuse base
@@ -43,7 +44,7 @@ struct Bsdf {
     bool two_sided = false;       // `twosided` wrapper: the back side mirrors the front side
     RGB diffuse{0.5f};            // diffuse reflectance (diffuse, roughdiffuse, plastic*, ward)
     RGB specular{1.0f};           // specular reflectance (conductor*, dielectric*, plastic*, ward)
-    RGB transmittance{1.0f};      // specular transmittance (dielectric*)
+    RGB transmittance{1.0f};      // specular transmittance (dielectric*, roughdielectric)
     RGB eta{0.0f}, k{0.0f};       // conductor: complex IOR relative to the exterior medium
     float ior = 1.5f;             // dielectric*/plastic*: interior IOR / exterior IOR
     float alpha_u = 0.1f, alpha_v = 0.1f;  // roughness (Beckmann/GGX alpha, Ward alpha, Oren-Nayar alpha)
@@ -88,7 +89,9 @@ void bsdf_prepare(Bsdf& b);
 // BSDF whose textured parameters were just evaluated at a hit: cheap (two luminances and a division),
 // unlike the IOR-only constants of bsdf_prepare (fdr_int integrates the Fresnel term numerically).
 void bsdf_refresh_weights(Bsdf& b);
-// f(wi, wo) * |cos theta_o| for the non-delta lobes.
+// f(wi, wo) * |cos theta_o| for the non-delta lobes. `mode` matters only where a non-delta lobe refracts
+// (roughdielectric): radiance is divided by eta^2 across the interface, importance is not, so that
+// bsdf_eval(wi, wo, Importance) / |wo.z| = bsdf_eval(wo, wi, Radiance) / |wi.z| (the adjoint BSDF).
 RGB bsdf_eval(const Bsdf& b, Vec3 wi, Vec3 wo, TransportMode mode = TransportMode::Radiance);
 // Density per steradian with which bsdf_sample produces wo (non-delta lobes only).
 float bsdf_pdf(const Bsdf& b, Vec3 wi, Vec3 wo);
@@ -108,6 +111,8 @@ float bsdf_guidable_pdf(const Bsdf& b, Vec3 wi, Vec3 wo);
 // True if the BSDF has only Dirac lobes (dielectric, thin dielectric, conductor): NEE and guiding are
 // pointless there.
 bool bsdf_is_delta(const Bsdf& b);
+// True for the non-delta BSDFs that transmit (roughdielectric): their lobes cover the whole sphere.
+inline bool bsdf_transmits(const Bsdf& b) { return b.type == BsdfType::RoughDielectric; }
 // True if some lobe is smooth enough that MIS/NEE at this vertex makes sense (has a non-delta part).
 inline bool bsdf_has_nondelta(const Bsdf& b) { return !bsdf_is_delta(b); }
 // True if some lobe is a Dirac lobe (the Dirac-only BSDFs, the smooth coat of plastic): the only

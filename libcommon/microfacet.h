@@ -1,4 +1,4 @@
-// Microfacet normal distributions for the rough BSDFs (roughconductor, roughplastic): Beckmann and
+// Microfacet normal distributions for the rough BSDFs (roughconductor, roughplastic, roughdielectric): Beckmann and
 // GGX (Trowbridge-Reitz), anisotropic, with the exact Smith masking function and sampling of the
 // distribution of visible normals (VNDF).
 //

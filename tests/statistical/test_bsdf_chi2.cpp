@@ -1,6 +1,6 @@
 // Chi-square tests of bsdf_sample() against bsdf_pdf() for every BSDF with a continuous lobe, at
-// normal, oblique (45 degrees) and grazing (80 degrees) incidence and several roughnesses. Delta
-// samples (plastic's specular reflection) are flagged discrete: the histogram covers the continuous
+// normal, oblique (45 degrees) and grazing (80 degrees) incidence (rough glass also from inside) and
+// several roughnesses. Delta samples (plastic's specular reflection) are flagged discrete: the histogram covers the continuous
 // part only, which is what pdf() describes. The significance level is Sidak-corrected over all the
 // configurations below, so the suite as a whole has a 1 % false-alarm rate. Deterministic (seeded).
 #include <gtest/gtest.h>
@@ -113,6 +113,25 @@ std::vector<Config> configs() {
     std::vector<Config> out;
     for (size_t i = 0; i < models.size(); ++i)
         for (auto& [in, wi] : incident) out.push_back({models[i].first + "_" + in, models[i].second, wi, peaky[i]});
+    // Rough glass reflects and refracts over the whole sphere, from either side: from inside also beyond
+    // the critical angle (41.8 degrees for 1.5), where the smooth interface reflects everything.
+    const std::pair<const char*, Vec3> both_sides[] = {{"normal", dir(0, 0)},      {"45deg", dir(45, 30)},
+                                                        {"80deg", dir(80, -60)},    {"inside30deg", dir(150, 70)},
+                                                        {"inside60deg", dir(120, -20)}};
+    for (Microfacet d : {Microfacet::Beckmann, Microfacet::GGX}) {
+        const std::string dn = d == Microfacet::Beckmann ? "beckmann" : "ggx";
+        for (auto [au, av] : {std::pair{0.05f, 0.05f}, {0.3f, 0.3f}, {0.1f, 0.5f}}) {
+            Bsdf b;
+            b.type = BsdfType::RoughDielectric;
+            b.distribution = d;
+            b.alpha_u = au;
+            b.alpha_v = av;
+            b.ior = 1.5f;
+            bsdf_prepare(b);
+            for (auto& [in, wi] : both_sides)
+                out.push_back({"roughdielectric_" + dn + "_" + fmt(au) + "_" + fmt(av) + "_" + in, b, wi, au < 0.1f});
+        }
+    }
     return out;
 }
 

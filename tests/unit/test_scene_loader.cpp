@@ -603,6 +603,8 @@ TEST(SceneLoader, BsdfParameterNamesAndDefaults) {
                        shape("glass", R"(<bsdf type="dielectric"><string name="intIOR" value="water"/><float name="extIOR" value="1.0"/></bsdf>)") +
                        shape("glassdef", R"(<bsdf type="dielectric"/>)") +
                        shape("pane", R"(<bsdf type="thindielectric"><float name="intIOR" value="1.52"/><rgb name="specularTransmittance" value="0.9, 0.8, 0.7"/></bsdf>)") +
+                       shape("frosted", R"(<bsdf type="roughdielectric"><string name="distribution" value="ggx"/><float name="alpha" value="0.2"/><float name="intIOR" value="1.33"/><float name="extIOR" value="1.0"/><rgb name="specularTransmittance" value="0.9, 0.8, 0.7"/><boolean name="sampleVisible" value="true"/></bsdf>)") +
+                       shape("frosteddef", R"(<bsdf type="roughdielectric"/>)") +
                        shape("gold", R"(<bsdf type="roughconductor"><string name="material" value="Au"/><string name="distribution" value="ggx"/><float name="alphaU" value="0.1"/><float name="alphaV" value="0.3"/></bsdf>)") +
                        shape("plastic", R"(<bsdf type="plastic"><boolean name="nonlinear" value="true"/></bsdf>)") +
                        shape("rough", R"(<bsdf type="roughplastic"/>)") +
@@ -620,6 +622,18 @@ TEST(SceneLoader, BsdfParameterNamesAndDefaults) {
     EXPECT_NEAR(pane.ior, 1.52f / 1.00028f, 1e-6f);
     expect_rgb(pane.specular, RGB(1.0f), 0);
     expect_rgb(pane.transmittance, RGB(0.9f, 0.8f, 0.7f), 1e-6f);
+    const Bsdf& frosted = bsdf("frosted");
+    EXPECT_EQ(frosted.type, BsdfType::RoughDielectric);
+    EXPECT_EQ(frosted.distribution, Microfacet::GGX);
+    EXPECT_FLOAT_EQ(frosted.alpha_u, 0.2f);
+    EXPECT_FLOAT_EQ(frosted.alpha_v, 0.2f);
+    EXPECT_NEAR(frosted.ior, 1.33f, 1e-6f);
+    expect_rgb(frosted.transmittance, RGB(0.9f, 0.8f, 0.7f), 1e-6f);
+    // Mitsuba's defaults: Beckmann, alpha 0.1, bk7 in air.
+    const Bsdf& frosteddef = bsdf("frosteddef");
+    EXPECT_EQ(frosteddef.distribution, Microfacet::Beckmann);
+    EXPECT_FLOAT_EQ(frosteddef.alpha_u, 0.1f);
+    EXPECT_NEAR(frosteddef.ior, 1.5046f / 1.00028f, 1e-6f);
     const Bsdf& gold = bsdf("gold");
     EXPECT_EQ(gold.type, BsdfType::RoughConductor);
     EXPECT_EQ(gold.distribution, Microfacet::GGX);
@@ -724,6 +738,17 @@ TEST(SceneLoaderErrors, UnknownPlugin) {
         "    </bsdf>\n  </shape>\n");
     expect_error(d.write("t.xml", tex), line_of(tex, "wireframe"),
                  "unsupported plugin \"wireframe\" (texture for parameter \"reflectance\" of bsdf \"diffuse\"");
+    // twosided mirrors a surface's front onto its back: meaningless (and refused by Mitsuba) for one that
+    // transmits; an index-matched rough interface has no microfacet density.
+    for (const char* glass : {"dielectric", "thindielectric", "roughdielectric"}) {
+        std::string two = scene_text(std::string("  <shape type=\"sphere\">\n    <bsdf type=\"twosided\">\n      <bsdf type=\"") +
+                                     glass + "\"/>\n    </bsdf>\n  </shape>\n");
+        expect_error(d.write("two.xml", two), line_of(two, "twosided"), "twosided cannot wrap a BSDF that transmits light");
+    }
+    std::string matched = scene_text(
+        "  <shape type=\"sphere\">\n    <bsdf type=\"roughdielectric\">\n"
+        "      <float name=\"intIOR\" value=\"1.2\"/>\n      <float name=\"extIOR\" value=\"1.2\"/>\n    </bsdf>\n  </shape>\n");
+    expect_error(d.write("m.xml", matched), line_of(matched, "roughdielectric"), "intIOR equals extIOR");
     std::string text2 = scene_text("  <shape type=\"torus\"/>\n");
     expect_error(d.write("s2.xml", text2), line_of(text2, "torus"), "unsupported shape type \"torus\"");
     std::string text3 = scene_text("  <lamp type=\"area\"/>\n");
