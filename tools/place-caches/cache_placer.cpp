@@ -25,8 +25,9 @@ struct PathVertex {
 };
 
 // Walks a BSDF-sampled camera path through film position (fx, fy), specular bounces chosen as the BSDF
-// would (Fresnel), and passes each non-specular vertex to `visit`, until max_vertices of them, more than
-// max_bounces bounces, or a miss; Russian roulette on the throughput from bounce `roulette_from` on.
+// would (Fresnel), and passes each vertex a cache could guide (neither specular nor glass) to `visit`,
+// until max_vertices of them, more than max_bounces bounces, or a miss; Russian roulette on the
+// throughput from bounce `roulette_from` on.
 // Light is not looked at: the walk only asks where a render's paths go.
 template <class Visit>
 void walk_camera_path(const Scene& scene, const Camera& cam, float fx, float fy, int w, int h, int max_bounces,
@@ -39,7 +40,8 @@ void walk_camera_path(const Scene& scene, const Camera& cam, float fx, float fy,
     for (int bounce = 0; bounce <= max_bounces; ++bounce) {
         if (!scene.intersect(ray, &hit)) return;
         const Bsdf& b = scene_bsdf_at(scene, hit, &scratch);
-        if (!bsdf_is_delta(b)) {
+        // (Rough glass is passed through like smooth glass: no cache guides it, bsdf_guidable_share.)
+        if (!bsdf_is_delta(b) && !bsdf_transmits(b)) {
             visit(PathVertex{hit.p, dot(hit.ng, ray.d) < 0 ? hit.ng : -hit.ng});
             if (++vertices >= max_vertices) return;
         }
