@@ -43,10 +43,10 @@ struct Bsdf {
     BsdfType type = BsdfType::Diffuse;
     bool two_sided = false;       // `twosided` wrapper: the back side mirrors the front side
     RGB diffuse{0.5f};            // diffuse reflectance (diffuse, roughdiffuse, plastic*, ward)
-    RGB specular{1.0f};           // specular reflectance (conductor*, dielectric*, plastic*, ward)
+    RGB specular{1.0f};           // specular reflectance (conductor*, dielectric*, roughdielectric, plastic*, ward)
     RGB transmittance{1.0f};      // specular transmittance (dielectric*, roughdielectric)
     RGB eta{0.0f}, k{0.0f};       // conductor: complex IOR relative to the exterior medium
-    float ior = 1.5f;             // dielectric*/plastic*: interior IOR / exterior IOR
+    float ior = 1.5f;             // dielectric*/roughdielectric/plastic*: interior IOR / exterior IOR
     float alpha_u = 0.1f, alpha_v = 0.1f;  // roughness (Beckmann/GGX alpha, Ward alpha, Oren-Nayar alpha)
     Microfacet distribution = Microfacet::Beckmann;
     WardVariant ward_variant = WardVariant::Balanced;

@@ -1,6 +1,6 @@
-// Microfacet normal distributions for the rough BSDFs (roughconductor, roughplastic, roughdielectric): Beckmann and
-// GGX (Trowbridge-Reitz), anisotropic, with the exact Smith masking function and sampling of the
-// distribution of visible normals (VNDF).
+// Microfacet normal distributions for the rough BSDFs (roughconductor, roughplastic, roughdielectric):
+// Beckmann and GGX (Trowbridge-Reitz), anisotropic, with the exact Smith masking function and sampling
+// of the distribution of visible normals (VNDF).
 //
 // Conventions (local shading frame, normal = +z, all vectors unit length):
 //   D(m)          density of microfacet normals per steradian of m, normalised so that
