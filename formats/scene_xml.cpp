@@ -947,11 +947,11 @@ private:
             };
         };
         IgnoreRule ignore;
-        // Name an unsupported BSDF plugin first: wrappers such as bumpmap or mask nest a <bsdf>, which
-        // would otherwise be reported as a misplaced element.
-        static const char* const kSupported[] = {"twosided",       "diffuse",         "roughdiffuse", "dielectric",
-                                                 "thindielectric", "roughdielectric", "conductor",    "roughconductor",
-                                                 "plastic",        "roughplastic",    "ward"};
+        // Name an unsupported BSDF plugin first: wrappers such as mask nest a <bsdf>, which would otherwise
+        // be reported as a misplaced element.
+        static const char* const kSupported[] = {"twosided",     "bumpmap",        "diffuse",         "roughdiffuse",
+                                                 "dielectric",   "thindielectric", "roughdielectric", "conductor",
+                                                 "roughconductor", "plastic",      "roughplastic",    "ward"};
         if (std::find(std::begin(kSupported), std::end(kSupported), t) == std::end(kSupported))
             fail(src, p.line, "unsupported plugin " + quote(t) + " (bsdf)");
         if (t == "twosided") {
@@ -974,6 +974,42 @@ private:
             if (b.type == BsdfType::Dielectric || b.type == BsdfType::ThinDielectric || b.type == BsdfType::RoughDielectric)
                 fail(src, p.line, "twosided cannot wrap a BSDF that transmits light (dielectric, thindielectric, roughdielectric)");
             b.two_sided = true;
+        } else if (t == "bumpmap") {
+            // A displacement texture and one BSDF, nested or referenced, in either order; the BSDF's shading
+            // normal is then tilted by the texture's gradient (Bsdf::tex_bump, applied by Scene::intersect).
+            int16_t bump = -1;
+            bool have_bsdf = false;
+            auto take_bsdf = [&](const Bsdf& nested, int line) {
+                if (have_bsdf) fail(src, line, "bumpmap takes exactly one nested <bsdf> or <ref>");
+                have_bsdf = true;
+                b = nested;
+            };
+            for (pugi::xml_node c : p.children) {
+                const std::string tag = c.name();
+                const int line = src.line_of(c);
+                if (tag == "texture") {
+                    if (bump >= 0) fail(src, line, "bumpmap takes exactly one displacement <texture>");
+                    // As Mitsuba: a height map read with the implicit gamma would be decoded as sRGB colour.
+                    if (std::string(c.attribute("type").value()) == "bitmap" && !c.find_child_by_attribute("name", "gamma"))
+                        fail(src, line, "a bitmap used as a bump map needs an explicit gamma (most likely <float name=\"gamma\" value=\"1\"/>)");
+                    bump = parse_texture(src, c, "displacement texture of bsdf \"bumpmap\"");
+                } else if (tag == "bsdf") {
+                    std::string nested_id;
+                    take_bsdf(parse_bsdf(src, c, &nested_id), line);
+                    if (!nested_id.empty()) named_bsdfs_[nested_id].used = true;  // used through the wrapper
+                } else if (tag == "ref" && named_textures_.count(c.attribute("id").value())) {
+                    if (bump >= 0) fail(src, line, "bumpmap takes exactly one displacement <texture>");
+                    bump = texture_ref(src, c);
+                } else if (tag == "ref") {
+                    take_bsdf(named_bsdf(src, c).bsdf, line);
+                } else {
+                    fail(src, line, "<" + tag + "> is not allowed inside bsdf \"bumpmap\"");
+                }
+            }
+            if (bump < 0) fail(src, p.line, "bumpmap needs a displacement <texture>");
+            if (!have_bsdf) fail(src, p.line, "bumpmap needs a nested <bsdf> or <ref>");
+            if (b.tex_bump >= 0) fail(src, p.line, "a bumpmap inside a bumpmap is not supported (iris keeps one per BSDF)");
+            b.tex_bump = bump;
         } else {
             TexParams tex = bsdf_textures(p);
             if (t == "diffuse") {

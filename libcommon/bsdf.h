@@ -61,6 +61,9 @@ struct Bsdf {
     int16_t tex_transmittance = -1;  // -> transmittance
     int16_t tex_alpha_u = -1;        // -> alpha_u (the isotropic alpha too)
     int16_t tex_alpha_v = -1;        // -> alpha_v
+    // `bumpmap`: the displacement texture whose gradient tilts the shading normal (Scene::intersect applies
+    // it, so every tool sees the bumped frame); -1 = none.
+    int16_t tex_bump = -1;
 
     // Derived constants, filled by bsdf_prepare() (called by the scene loader after the fields above).
     float specular_sampling_weight = 0.5f;  // probability of sampling the glossy/specular lobe first
@@ -72,7 +75,7 @@ struct Bsdf {
 // Whether some parameter is a texture (any tex_* >= 0); valid before bsdf_prepare too.
 inline bool bsdf_has_textures(const Bsdf& b) {
     return b.tex_diffuse >= 0 || b.tex_specular >= 0 || b.tex_transmittance >= 0 || b.tex_alpha_u >= 0 ||
-           b.tex_alpha_v >= 0;
+           b.tex_alpha_v >= 0 || b.tex_bump >= 0;
 }
 
 struct BsdfSample {

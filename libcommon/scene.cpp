@@ -38,6 +38,25 @@ void Scene::finalize() {
     accel = std::make_shared<Accel>(*this);
 }
 
+namespace {
+
+// Mitsuba 0.5's `bumpmap`: the displacement h(u, v) (the texture's luminance) moves the surface along its
+// shading normal n. The tangents become dpdu + n (dh/du - n.dpdu) and likewise for v (Mitsuba's form: it
+// also drops the tangents' own normal components, and ignores how n itself turns), and their cross product,
+// turned to ng's side, is the new shading normal. n where the tangents are degenerate.
+Vec3 bumped_normal(const Texture& bump, Vec2 uv, Vec3 n, Vec3 ng, Vec3 dpdu, Vec3 dpdv) {
+    RGB gu, gv;
+    texture_gradient(bump, uv, &gu, &gv);
+    const float hu = luminance(gu), hv = luminance(gv);
+    const Vec3 su = dpdu + n * (hu - dot(n, dpdu)), sv = dpdv + n * (hv - dot(n, dpdv));
+    const Vec3 b = cross(su, sv);
+    const float l = length(b);
+    if (!(l > 0) || !std::isfinite(l)) return n;
+    return dot(b, ng) < 0 ? b * (-1.0f / l) : b * (1.0f / l);
+}
+
+}  // namespace
+
 bool Scene::intersect(const Ray& ray, SurfaceHit* h) const {
     float t, u, v;
     uint32_t geom, prim;
@@ -71,13 +90,24 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* h) const {
         // Only where a texture will read it: meshes from PLY files often carry uvs their BSDF ignores.
         // A mesh without uvs gets the barycentrics of vertices 1 and 2, as in Mitsuba's TriMesh.
         h->uv = Vec2{};
-        if (bsdfs[m.bsdf].textured) {
+        const Bsdf& b = bsdfs[m.bsdf];
+        if (b.textured) {
+            // dp/du, dp/dv of the triangle's uv parametrisation, for a bump map.
+            Vec3 dpdu = p1 - p0, dpdv = p2 - p0;  // (without uvs: uv = (u, v), the barycentrics)
             if (!m.uvs.empty()) {
                 const Vec2 t0 = m.uvs[idx[0]], t1 = m.uvs[idx[1]], t2 = m.uvs[idx[2]];
                 h->uv = Vec2{t0.x * b0 + t1.x * u + t2.x * v, t0.y * b0 + t1.y * u + t2.y * v};
+                if (b.tex_bump >= 0) {
+                    const float du1 = t1.x - t0.x, dv1 = t1.y - t0.y, du2 = t2.x - t0.x, dv2 = t2.y - t0.y;
+                    const float det = du1 * dv2 - dv1 * du2;
+                    const Vec3 e1 = dpdu, e2 = dpdv;
+                    dpdu = (e1 * dv2 - e2 * dv1) * (1.0f / det);
+                    dpdv = (e2 * du1 - e1 * du2) * (1.0f / det);  // (det = 0: not finite, no bump)
+                }
             } else {
                 h->uv = Vec2{u, v};
             }
+            if (b.tex_bump >= 0) h->ns = bumped_normal(textures[size_t(b.tex_bump)], h->uv, ns, ng, dpdu, dpdv);
         }
     } else {
         const Sphere& s = spheres[ref.index];
@@ -98,7 +128,16 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* h) const {
             const float lx = dot(n, s.axis_x), ly = dot(n, s.axis_y), lz = dot(n, s.axis_z);
             float phi = std::atan2(ly, lx);
             if (phi < 0) phi += 2.0f * kPi;
-            h->uv = Vec2{phi * (0.5f * kInvPi), std::acos(std::clamp(lz, -1.0f, 1.0f)) * kInvPi};
+            const float theta = std::acos(std::clamp(lz, -1.0f, 1.0f));
+            h->uv = Vec2{phi * (0.5f * kInvPi), theta * kInvPi};
+            if (const Bsdf& b = bsdfs[s.bsdf]; b.tex_bump >= 0) {
+                // Mitsuba's sphere: dp/du = 2 pi r (-y, x, 0), dp/dv = pi r (z cos phi, z sin phi, -sin theta)
+                // in the object frame (x, y, z the unit position); degenerate at the poles (no bump there).
+                const float sin_t = std::sin(theta), cos_p = std::cos(phi), sin_p = std::sin(phi);
+                const Vec3 dpdu = (s.axis_x * -ly + s.axis_y * lx) * (2.0f * kPi * s.radius);
+                const Vec3 dpdv = (s.axis_x * (lz * cos_p) + s.axis_y * (lz * sin_p) + s.axis_z * -sin_t) * (kPi * s.radius);
+                h->ns = bumped_normal(textures[size_t(b.tex_bump)], h->uv, h->ns, h->ng, dpdu, dpdv);
+            }
         }
     }
     h->frame = Frame(h->ns);

@@ -46,6 +46,27 @@ inline int to_index(float f) {
     return int(std::floor(f));
 }
 
+// The four texels around texel-space position (x, y) and the position's fractions between their centres,
+// which sit at half-integer positions.
+struct Bilinear {
+    RGB a, b, c, d;  // (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1)
+    float fx, fy;
+};
+inline Bilinear bilinear(const Texture& t, float x, float y) {
+    const float xs = x - 0.5f, ys = y - 0.5f;
+    const int x0 = to_index(xs), y0 = to_index(ys);
+    Bilinear q;
+    q.fx = xs - std::floor(xs);
+    q.fy = ys - std::floor(ys);
+    if (!(q.fx >= 0.0f && q.fx <= 1.0f)) q.fx = 0.0f;  // NaN / overflowed coordinates
+    if (!(q.fy >= 0.0f && q.fy <= 1.0f)) q.fy = 0.0f;
+    q.a = texel(t, x0, y0);
+    q.b = texel(t, x0 + 1, y0);
+    q.c = texel(t, x0, y0 + 1);
+    q.d = texel(t, x0 + 1, y0 + 1);
+    return q;
+}
+
 }  // namespace
 
 RGB texture_eval(const Texture& t, Vec2 uv) {
@@ -64,15 +85,18 @@ RGB texture_eval(const Texture& t, Vec2 uv) {
     }
     const float x = u * float(t.width), y = v * float(t.height);
     if (t.filter == TextureFilter::Nearest) return texel(t, to_index(x), to_index(y));
-    // Bilinear between texel centres, which sit at half-integer positions.
-    const float xs = x - 0.5f, ys = y - 0.5f;
-    const int x0 = to_index(xs), y0 = to_index(ys);
-    float fx = xs - std::floor(xs), fy = ys - std::floor(ys);
-    if (!(fx >= 0.0f && fx <= 1.0f)) fx = 0.0f;  // NaN / overflowed coordinates
-    if (!(fy >= 0.0f && fy <= 1.0f)) fy = 0.0f;
-    const RGB a = texel(t, x0, y0), b = texel(t, x0 + 1, y0);
-    const RGB c = texel(t, x0, y0 + 1), d = texel(t, x0 + 1, y0 + 1);
-    return (a * (1.0f - fx) + b * fx) * (1.0f - fy) + (c * (1.0f - fx) + d * fx) * fy;
+    const Bilinear q = bilinear(t, x, y);
+    return (q.a * (1.0f - q.fx) + q.b * q.fx) * (1.0f - q.fy) + (q.c * (1.0f - q.fx) + q.d * q.fx) * q.fy;
+}
+
+void texture_gradient(const Texture& t, Vec2 uv, RGB* d_du, RGB* d_dv) {
+    *d_du = *d_dv = RGB(0.0f);
+    if (t.type == TextureType::Checkerboard || t.filter == TextureFilter::Nearest) return;
+    const float x = (uv.x * t.uscale + t.uoffset) * float(t.width), y = (uv.y * t.vscale + t.voffset) * float(t.height);
+    const Bilinear q = bilinear(t, x, y);
+    // d/dx of the interpolant times dx/du = width * uscale (likewise for v).
+    *d_du = ((q.b - q.a) * (1.0f - q.fy) + (q.d - q.c) * q.fy) * (float(t.width) * t.uscale);
+    *d_dv = ((q.c - q.a) * (1.0f - q.fx) + (q.d - q.b) * q.fx) * (float(t.height) * t.vscale);
 }
 
 }  // namespace iris

@@ -41,6 +41,11 @@ struct Texture {
 
 // The texture's value at surface coordinates uv (before the texture's own scale and offset).
 RGB texture_eval(const Texture& t, Vec2 uv);
+// Its derivatives along the surface's u and v (per unit of uv, the texture's uscale/vscale included), as
+// Mitsuba 0.5 takes them for bump maps: the bilinear interpolant's exact derivative (on the finest level,
+// unfiltered); zero for nearest lookups and for the checkerboard (piecewise constant: Mitsuba's finite
+// difference is non-zero only within 1e-4 of a square's edge).
+void texture_gradient(const Texture& t, Vec2 uv, RGB* d_du, RGB* d_dv);
 
 // Mitsuba's decoding of stored values to linear ones: the sRGB curve is srgb_to_linear (spectrum.h);
 // a `gamma` parameter means a power law.

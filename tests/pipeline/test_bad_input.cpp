@@ -89,12 +89,15 @@ protected:
     // staging folder renamed into place when complete (a concurrent case that loses the race uses the
     // winner's).
     static void SetUpTestSuite() {
-        uint64_t stamp = 1469598103934665603ull;  // FNV-1a over the tools' modification times
+        // FNV-1a over the modification times of the tools and of this test binary (whose make_inputs
+        // may have changed).
+        uint64_t stamp = 1469598103934665603ull;
         for (const char* t : {"trace-photons", "place-caches", "fill-caches", "render", "compare-images", "inspect-caches",
                               "merge-images", "merge-photons"}) {
             const auto ticks = uint64_t(fs::last_write_time(tool(t)).time_since_epoch().count());
             stamp = (stamp ^ ticks) * 1099511628211ull;
         }
+        stamp = (stamp ^ uint64_t(fs::last_write_time("/proc/self/exe").time_since_epoch().count())) * 1099511628211ull;
         const fs::path root = fs::path(IRIS_BIN_DIR).parent_path() / "test-inputs";
         dir_ = root / ("bad-input-" + std::to_string(stamp));
         if (fs::exists(dir_ / "complete")) return;
@@ -180,6 +183,7 @@ protected:
         write_text(in("truncated.xml"), caustic_text.substr(0, caustic_text.size() * 6 / 10));
         write_text(in("unknown_plugin.xml"), scene_with(sphere + "\n    <bsdf type=\"velvet\"/>"));
         write_text(in("bumpmap.xml"), scene_with(sphere + "\n    <bsdf type=\"bumpmap\"><bsdf type=\"diffuse\"/></bsdf>"));
+        write_text(in("mask.xml"), scene_with(sphere + "\n    <bsdf type=\"mask\"><bsdf type=\"diffuse\"/></bsdf>"));
         auto textured = [&](const std::string& file) {
             return scene_with(sphere + "\n    <bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
                                        "<string name=\"filename\" value=\"" + file + "\"/></texture></bsdf>");
@@ -308,7 +312,8 @@ const BadInputCase kCases[] = {
     {"SceneMalformed", "render", "malformed XML (unclosed element)", "{in}/malformed.xml -o {out}", "malformed.xml"},
     {"SceneTruncated", "render", "scene file cut off midway", "{in}/truncated.xml -o {out}", "truncated.xml"},
     {"SceneUnknownPlugin", "render", "unknown plugin (bsdf type velvet)", "{in}/unknown_plugin.xml -o {out}", "velvet"},
-    {"SceneBumpmap", "render", "unsupported BSDF wrapper (bumpmap)", "{in}/bumpmap.xml -o {out}", "unsupported plugin \"bumpmap\""},
+    {"SceneBumpmap", "render", "bumpmap without its displacement texture", "{in}/bumpmap.xml -o {out}", "bumpmap needs a displacement <texture>"},
+    {"SceneMask", "render", "unsupported BSDF wrapper (mask)", "{in}/mask.xml -o {out}", "unsupported plugin \"mask\""},
     {"SceneTextureUnsupported", "render", "unsupported texture plugin (wireframe)", "{in}/texture_unsupported.xml -o {out}", "unsupported plugin \"wireframe\""},
     {"TextureMissing", "render", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png"},
     {"TextureGarbage", "render", "bitmap texture file that is not an image", "{in}/texture_garbage.xml -o {out}", "not_a_png.png"},

@@ -399,3 +399,167 @@ TEST(TexturedBsdf, TextureErrorsNameTheParameter) {
 
 }  // namespace
 }  // namespace iris
+
+namespace iris {
+namespace {
+
+// ---- bumpmap ---------------------------------------------------------------------------------------------
+
+// A 2 x 2 grey height map whose bilinear interpolant is a plane, h = a X + b Y in texel units between the
+// texel centres (values k / 255, read linearly with gamma 1): dh/du = 2 a, dh/dv = 2 b per unit of uv.
+constexpr float kBumpA = 102 / 255.0f, kBumpB = 51 / 255.0f;
+void write_ramp(const TempDir& d, const std::string& name) {
+    const float h[4] = {0, kBumpA, kBumpB, kBumpA + kBumpB};  // rows top (v = 0) to bottom
+    std::vector<float> rgb;
+    for (float v : h) rgb.insert(rgb.end(), {v, v, v});
+    write_png(d(name), 2, 2, rgb);
+}
+std::string bumped(const std::string& inner_bsdf, float scale = 0.05f) {
+    return "<bsdf type=\"bumpmap\"><texture type=\"scale\"><float name=\"scale\" value=\"" + std::to_string(scale) +
+           "\"/><texture type=\"bitmap\"><string name=\"filename\" value=\"ramp.png\"/><float name=\"gamma\" value=\"1\"/>"
+           "</texture></texture>" + inner_bsdf + "</bsdf>";
+}
+
+// Mitsuba's bump: tangents dpdu + n dh/du, dpdv + n dh/dv, the new normal their cross product. On the
+// rectangle scaled by 2 in x (dpdu = (4, 0, 0), dpdv = (0, 2, 0)) with dh/du = 2 a s, dh/dv = 2 b s (s the
+// scale texture's factor): n' = normalize(-2 dh/du, -4 dh/dv, 8) -- tilted down the slope, along both axes.
+TEST(BumpMap, TiltsTheShadingNormalDownTheHeightGradient) {
+    TempDir d;
+    write_ramp(d, "ramp.png");
+    Scene s = load_quiet(d.write("s.xml", scene_text(
+        "  <shape type=\"rectangle\">\n    <transform name=\"toWorld\"><scale x=\"2\"/></transform>\n    " +
+        bumped("<bsdf type=\"diffuse\"/>") + "\n  </shape>\n  <emitter type=\"constant\"/>\n")));
+    const double hu = 2 * kBumpA * 0.05, hv = 2 * kBumpB * 0.05;
+    const double len = std::sqrt(4 * hu * hu + 16 * hv * hv + 64);
+    for (Vec2 xy : {Vec2{0.0f, 0.0f}, Vec2{0.5f, -0.3f}, Vec2{-0.7f, 0.4f}}) {  // (between the texel centres)
+        Ray ray;
+        ray.o = Vec3(xy.x, xy.y, 3);
+        ray.d = Vec3(0, 0, -1);
+        SurfaceHit hit;
+        ASSERT_TRUE(s.intersect(ray, &hit));
+        EXPECT_NEAR(hit.ns.x, -2 * hu / len, 1e-5);
+        EXPECT_NEAR(hit.ns.y, -4 * hv / len, 1e-5);
+        EXPECT_NEAR(hit.ns.z, 8 / len, 1e-5);
+        EXPECT_NEAR(hit.frame.n.x, hit.ns.x, 0);
+        EXPECT_EQ(hit.ng.z, 1.0f) << "the geometric normal stays";
+    }
+    // Without the wrapper, the same surface keeps its normal.
+    Scene flat = load_quiet(d.write("f.xml", scene_text(
+        "  <shape type=\"rectangle\"><bsdf type=\"diffuse\"/></shape>\n  <emitter type=\"constant\"/>\n")));
+    SurfaceHit hit;
+    ASSERT_TRUE(flat.intersect(Ray{Vec3(0, 0, 3), Vec3(0, 0, -1)}, &hit));
+    EXPECT_EQ(hit.ns.z, 1.0f);
+}
+
+// On a sphere (Mitsuba's uv: u = phi / 2 pi, v = theta / pi; dp/du = 2 pi r (-y, x, 0), dp/dv orthogonal to
+// it) a height that grows with u alone tilts the normal against the direction of growing phi by
+// atan(dh/du / |dp/du|), |dp/du| = 2 pi r sin(theta).
+TEST(BumpMap, OnASphereTiltsAlongTheParametrisation) {
+    TempDir d;
+    const float h[4] = {0, kBumpA, 0, kBumpA};  // dh/dv = 0
+    std::vector<float> rgb;
+    for (float v : h) rgb.insert(rgb.end(), {v, v, v});
+    write_png(d("ramp.png"), 2, 2, rgb);
+    const float r = 1.5f;
+    Scene s = load_quiet(d.write("s.xml", scene_text("  <shape type=\"sphere\"><float name=\"radius\" value=\"" +
+                                                     std::to_string(r) + "\"/>" + bumped("<bsdf type=\"diffuse\"/>") +
+                                                     "</shape>\n  <emitter type=\"constant\"/>\n")));
+    const double hu = 2 * kBumpA * 0.05;
+    for (float phi_deg : {100.0f, 135.0f, 160.0f}) {  // u between the texel centres (0.25 .. 0.75)
+        const float phi = phi_deg * kPi / 180, theta = 70 * kPi / 180;
+        const Vec3 n(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+        Ray ray;
+        ray.o = n * 5.0f;
+        ray.d = -n;
+        SurfaceHit hit;
+        ASSERT_TRUE(s.intersect(ray, &hit));
+        const Vec3 u_dir(-std::sin(phi), std::cos(phi), 0);  // direction of growing phi
+        const double tilt = std::atan(hu / (2 * kPi * r * std::sin(theta)));
+        EXPECT_NEAR(dot(hit.ns, n), std::cos(tilt), 1e-5) << phi_deg;
+        EXPECT_NEAR(dot(hit.ns, u_dir), -std::sin(tilt), 1e-5) << phi_deg;
+        EXPECT_NEAR(length(hit.ns), 1.0f, 1e-6f);
+    }
+}
+
+// The wrapper in the scene file: either order of texture and BSDF, a referenced texture or BSDF, inside and
+// around twosided; the errors Mitsuba gives (a bitmap without an explicit gamma) and the ones of a wrapper
+// that lacks its texture or BSDF, or wraps another bump map.
+TEST(BumpMap, SceneFileFormsAndErrors) {
+    TempDir d;
+    write_ramp(d, "ramp.png");
+    const std::string tex = "<texture type=\"bitmap\"><string name=\"filename\" value=\"ramp.png\"/><float name=\"gamma\" value=\"1\"/></texture>";
+    auto shape = [](const std::string& bsdf) { return "  <shape type=\"rectangle\">" + bsdf + "</shape>\n"; };
+    const std::string forms =
+        "  <texture type=\"bitmap\" id=\"h\"><string name=\"filename\" value=\"ramp.png\"/><float name=\"gamma\" value=\"1\"/></texture>\n"
+        "  <bsdf type=\"roughplastic\" id=\"rp\"/>\n" +
+        shape("<bsdf type=\"bumpmap\"><bsdf type=\"diffuse\"/>" + tex + "</bsdf>") +
+        shape("<bsdf type=\"bumpmap\"><ref id=\"h\"/><ref id=\"rp\"/></bsdf>") +
+        shape("<bsdf type=\"twosided\"><bsdf type=\"bumpmap\">" + tex + "<bsdf type=\"diffuse\"/></bsdf></bsdf>") +
+        shape("<bsdf type=\"bumpmap\">" + tex + "<bsdf type=\"twosided\"><bsdf type=\"diffuse\"/></bsdf></bsdf>") +
+        shape("<bsdf type=\"bumpmap\">" + tex + "<bsdf type=\"dielectric\"/></bsdf>");
+    Scene s = load_quiet(d.write("ok.xml", scene_text(forms)));
+    ASSERT_EQ(s.meshes.size(), 5u);
+    for (const Mesh& m : s.meshes) {
+        const Bsdf& b = s.bsdfs[m.bsdf];
+        EXPECT_GE(b.tex_bump, 0);
+        EXPECT_TRUE(b.textured);
+    }
+    EXPECT_EQ(s.bsdfs[s.meshes[1].bsdf].type, BsdfType::RoughPlastic);
+    EXPECT_TRUE(s.bsdfs[s.meshes[2].bsdf].two_sided);
+    EXPECT_TRUE(s.bsdfs[s.meshes[3].bsdf].two_sided);
+    EXPECT_EQ(s.bsdfs[s.meshes[4].bsdf].type, BsdfType::Dielectric);
+
+    auto expect_error = [&](const std::string& body, const std::string& fragment) {
+        const std::string path = d.write("bad.xml", scene_text(body));
+        try {
+            load_quiet(path);
+            ADD_FAILURE() << "no error for: " << body;
+        } catch (const std::exception& e) {
+            EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("bad.xml:"), std::string::npos) << e.what();
+        }
+    };
+    expect_error(shape("<bsdf type=\"bumpmap\"><texture type=\"bitmap\"><string name=\"filename\" value=\"ramp.png\"/></texture>"
+                       "<bsdf type=\"diffuse\"/></bsdf>"),
+                 "needs an explicit gamma");
+    expect_error(shape("<bsdf type=\"bumpmap\"><bsdf type=\"diffuse\"/></bsdf>"), "bumpmap needs a displacement <texture>");
+    expect_error(shape("<bsdf type=\"bumpmap\">" + tex + "</bsdf>"), "bumpmap needs a nested <bsdf> or <ref>");
+    expect_error(shape("<bsdf type=\"bumpmap\">" + tex + "<bsdf type=\"bumpmap\">" + tex + "<bsdf type=\"diffuse\"/></bsdf></bsdf>"),
+                 "a bumpmap inside a bumpmap");
+    expect_error(shape("<bsdf type=\"bumpmap\">" + tex + tex + "<bsdf type=\"diffuse\"/></bsdf>"), "exactly one displacement");
+    expect_error(shape("<bsdf type=\"bumpmap\">" + tex + "<bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf>"),
+                 "exactly one nested");
+    expect_error(shape("<bsdf type=\"bumpmap\"><float name=\"scale\" value=\"2\"/>" + tex + "<bsdf type=\"diffuse\"/></bsdf>"),
+                 "scale");
+}
+
+// The bilinear gradient is the interpolant's derivative (against a central difference of texture_eval),
+// with the texture's uv scale; nearest lookups and the checkerboard have none.
+TEST(BumpMap, TextureGradientIsTheInterpolantsDerivative) {
+    Texture t;
+    t.width = 3;
+    t.height = 2;
+    t.texels = {RGB(0.1f), RGB(0.7f), RGB(0.3f), RGB(0.9f, 0.2f, 0.4f), RGB(0.0f), RGB(0.5f)};
+    t.uscale = 2.0f;
+    t.voffset = 0.1f;
+    for (Vec2 uv : {Vec2{0.13f, 0.31f}, Vec2{0.41f, 0.77f}, Vec2{0.9f, 0.05f}}) {
+        RGB du, dv;
+        texture_gradient(t, uv, &du, &dv);
+        const float e = 1e-3f;
+        const RGB fu = (texture_eval(t, {uv.x + e, uv.y}) - texture_eval(t, {uv.x - e, uv.y})) / (2 * e);
+        const RGB fv = (texture_eval(t, {uv.x, uv.y + e}) - texture_eval(t, {uv.x, uv.y - e})) / (2 * e);
+        expect_rgb(du, fu, 2e-2f);
+        expect_rgb(dv, fv, 2e-2f);
+    }
+    t.filter = TextureFilter::Nearest;
+    RGB du, dv;
+    texture_gradient(t, {0.4f, 0.4f}, &du, &dv);
+    EXPECT_TRUE(is_black(du) && is_black(dv));
+    Texture c;
+    c.type = TextureType::Checkerboard;
+    texture_gradient(c, {0.4f, 0.4f}, &du, &dv);
+    EXPECT_TRUE(is_black(du) && is_black(dv));
+}
+
+}  // namespace
+}  // namespace iris
