@@ -406,10 +406,11 @@ namespace {
 // ---- bumpmap ---------------------------------------------------------------------------------------------
 
 // A 2 x 2 grey height map whose bilinear interpolant is a plane, h = a X + b Y in texel units between the
-// texel centres (values k / 255, read linearly with gamma 1): dh/du = 2 a, dh/dv = 2 b per unit of uv.
+// texel centres (values k / 255, read linearly with gamma 1): dh/du = 2 a, dh/dv = 2 b per unit of uv
+// (the test's scale texture multiplies both).
 constexpr float kBumpA = 102 / 255.0f, kBumpB = 51 / 255.0f;
-void write_ramp(const TempDir& d, const std::string& name) {
-    const float h[4] = {0, kBumpA, kBumpB, kBumpA + kBumpB};  // rows top (v = 0) to bottom
+void write_ramp(const TempDir& d, const std::string& name, float a = kBumpA, float b = kBumpB) {
+    const float h[4] = {0, a, b, a + b};  // rows top (v = 0) to bottom
     std::vector<float> rgb;
     for (float v : h) rgb.insert(rgb.end(), {v, v, v});
     write_png(d(name), 2, 2, rgb);
@@ -456,10 +457,7 @@ TEST(BumpMap, TiltsTheShadingNormalDownTheHeightGradient) {
 // atan(dh/du / |dp/du|), |dp/du| = 2 pi r sin(theta).
 TEST(BumpMap, OnASphereTiltsAlongTheParametrisation) {
     TempDir d;
-    const float h[4] = {0, kBumpA, 0, kBumpA};  // dh/dv = 0
-    std::vector<float> rgb;
-    for (float v : h) rgb.insert(rgb.end(), {v, v, v});
-    write_png(d("ramp.png"), 2, 2, rgb);
+    write_ramp(d, "ramp.png", kBumpA, 0.0f);  // dh/dv = 0
     const float r = 1.5f;
     Scene s = load_quiet(d.write("s.xml", scene_text("  <shape type=\"sphere\"><float name=\"radius\" value=\"" +
                                                      std::to_string(r) + "\"/>" + bumped("<bsdf type=\"diffuse\"/>") +
