@@ -3,6 +3,8 @@
 // and Bsdf::tex_* (one Texture per distinct texture, one decode per file); Scene::intersect gives the
 // hit's uv; scene_bsdf_at evaluates the textures there (and leaves untextured BSDFs alone, by
 // reference); a render of a textured rectangle under a constant environment shows each pixel's texel.
+// Bump maps (bumpmap): the tilted shading normal against the closed form, the texture's gradient, and
+// the wrapper's file forms and errors.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
