@@ -211,11 +211,8 @@ RGB rough_dielectric_eval(const Bsdf& b, Vec3 wi, Vec3 wo, TransportMode mode) {
            finite_or_max((1.0 - F) * D * G * std::abs(double(di) * dout) * scale / (std::abs(wi.z) * denom * denom));
 }
 
-float rough_dielectric_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
-    Vec3 h;
-    float eta;
-    bool reflect;
-    if (!rough_dielectric_half(b, wi, wo, &h, &eta, &reflect)) return 0.0f;
+// The density of wo given the half vector h of (wi, wo) (rough_dielectric_half).
+float rough_dielectric_pdf_at(const Bsdf& b, Vec3 wi, Vec3 wo, Vec3 h, float eta, bool reflect) {
     const MicrofacetDistribution d = dielectric_distribution(b);
     const double D = microfacet_d(d, h);
     if (D == 0) return 0.0f;
@@ -226,6 +223,14 @@ float rough_dielectric_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
     if (reflect) return finite_or_max(F * visible / (4.0 * std::abs(dout)));
     const double denom = double(di) + double(eta) * dout;
     return finite_or_max((1.0 - F) * visible * double(eta) * eta * std::abs(dout) / (denom * denom));
+}
+
+float rough_dielectric_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
+    Vec3 h;
+    float eta;
+    bool reflect;
+    if (!rough_dielectric_half(b, wi, wo, &h, &eta, &reflect)) return 0.0f;
+    return rough_dielectric_pdf_at(b, wi, wo, h, eta, reflect);
 }
 
 bool rough_dielectric_sample(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s, TransportMode mode) {
@@ -248,14 +253,14 @@ bool rough_dielectric_sample(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSampl
     // A reflection off m that leaves below the macro surface (or a refraction that stays above) is lost
     // (the single-scattering model's energy loss): pdf() gives such a (wi, wo) the other event's density.
     if (reflect_m != (wi.z * s->wo.z > 0)) return false;
-    // The density from (wi, wo) alone, as bsdf_pdf computes it, so that MIS sees the same number to the
-    // last bit; the weight f |cos_o| / pdf in closed form (D, G1(wi), F and the Jacobian cancel):
+    // The density from (wi, wo) alone (their half vector, not m), as bsdf_pdf computes it, so that MIS
+    // sees the same number to the last bit; the weight f |cos_o| / pdf in closed form (D, G1(wi), F and the Jacobian cancel):
     // R G1(wo, h) for reflection, T G1(wo, h) s / eta^2 for refraction.
     Vec3 h;
     float eta;
     bool reflect;
     if (!rough_dielectric_half(b, wi, s->wo, &h, &eta, &reflect)) return false;
-    s->pdf = rough_dielectric_pdf(b, wi, s->wo);
+    s->pdf = rough_dielectric_pdf_at(b, wi, s->wo, h, eta, reflect);
     if (!(s->pdf > 0)) return false;
     const float g1 = microfacet_g1(dielectric_distribution(b), s->wo, h);
     s->weight = reflect ? b.specular * g1
@@ -597,6 +602,7 @@ void bsdf_refresh_weights(Bsdf& b) {
 void bsdf_prepare(Bsdf& b) {
     bsdf_refresh_weights(b);
     b.textured = bsdf_has_textures(b);
+    b.textured_params = bsdf_has_textured_params(b);
     b.inv_eta2 = b.ior > 0 ? 1.0f / (b.ior * b.ior) : 1.0f;
     b.fdr_int = 0.0f;
     if ((b.type == BsdfType::Plastic || b.type == BsdfType::RoughPlastic) && b.ior > 0)

@@ -69,14 +69,17 @@ struct Bsdf {
     float specular_sampling_weight = 0.5f;  // probability of sampling the glossy/specular lobe first
     float fdr_int = 0.0f;                   // diffuse Fresnel reflectance seen from inside the coating
     float inv_eta2 = 1.0f;                  // 1/ior^2
-    bool textured = false;                  // bsdf_has_textures(), cached for the hot path
+    bool textured = false;         // bsdf_has_textures(), cached for the hot path: hits need a uv
+    bool textured_params = false;  // bsdf_has_textured_params(): scene_bsdf_at evaluates them per hit
 };
 
-// Whether some parameter is a texture (any tex_* >= 0); valid before bsdf_prepare too.
-inline bool bsdf_has_textures(const Bsdf& b) {
+// Whether some BSDF parameter is a texture (tex_* >= 0 but the bump); valid before bsdf_prepare too.
+inline bool bsdf_has_textured_params(const Bsdf& b) {
     return b.tex_diffuse >= 0 || b.tex_specular >= 0 || b.tex_transmittance >= 0 || b.tex_alpha_u >= 0 ||
-           b.tex_alpha_v >= 0 || b.tex_bump >= 0;
+           b.tex_alpha_v >= 0;
 }
+// Whether any texture is read at a hit: a parameter's or the bump map's.
+inline bool bsdf_has_textures(const Bsdf& b) { return bsdf_has_textured_params(b) || b.tex_bump >= 0; }
 
 struct BsdfSample {
     Vec3 wo;            // sampled direction, local frame

@@ -151,14 +151,15 @@ Vec3 offset_ray_origin(Vec3 p, Vec3 ng, Vec3 w, float magnitude = 0.0f);
 bool has_specular_surfaces(const Scene& scene);
 
 // The BSDF at a surface hit: scene.bsdfs[hit.bsdf] with its textured parameters evaluated at hit.uv.
-// An untextured BSDF (the common case) is returned by reference, at the cost of one flag test; a
+// An untextured BSDF (the common case; a bump map alone does not count, Scene::intersect applies it to
+// the hit's frame) is returned by reference, at the cost of one flag test; a
 // textured one is copied into *scratch, its textures looked up and its reflectance-dependent sampling
 // weight refreshed (bsdf_refresh_weights), and *scratch is returned. Every BSDF query at one vertex
 // (eval, pdf, sample, guiding shares) must use the same returned BSDF.
 const Bsdf& resolve_textured_bsdf(const Scene& scene, const Bsdf& b, Vec2 uv, Bsdf* scratch);
 inline const Bsdf& scene_bsdf_at(const Scene& scene, const SurfaceHit& hit, Bsdf* scratch) {
     const Bsdf& b = scene.bsdfs[hit.bsdf];
-    if (!b.textured) return b;
+    if (!b.textured_params) return b;
     return resolve_textured_bsdf(scene, b, hit.uv, scratch);
 }
 
