@@ -992,6 +992,12 @@ private:
                     // As Mitsuba: a height map read with the implicit gamma would be decoded as sRGB colour.
                     if (std::string(c.attribute("type").value()) == "bitmap" && !c.find_child_by_attribute("name", "gamma"))
                         fail(src, line, "a bitmap used as a bump map needs an explicit gamma (most likely <float name=\"gamma\" value=\"1\"/>)");
+                    // Mitsuba checks only a bitmap directly inside; one deeper (in a `scale`) is decoded with the
+                    // file's own curve there too, which iris follows, but says so.
+                    for (const pugi::xpath_node& x : c.select_nodes(".//texture[@type='bitmap']"))
+                        if (!x.node().find_child_by_attribute("name", "gamma"))
+                            warn(src, src.line_of(x.node()), "height-map bitmap without an explicit gamma: decoded with the file's own "
+                                                      "curve (sRGB for 8-bit images), as in Mitsuba; give gamma 1 for linear heights");
                     bump = parse_texture(src, c, "displacement texture of bsdf \"bumpmap\"");
                 } else if (tag == "bsdf") {
                     std::string nested_id;

@@ -504,10 +504,24 @@ TEST(BumpMap, SceneFileFormsAndErrors) {
         EXPECT_GE(b.tex_bump, 0);
         EXPECT_TRUE(b.textured);
     }
+    // A bump alone leaves the BSDF's parameters constant: scene_bsdf_at returns it by reference.
+    EXPECT_FALSE(s.bsdfs[s.meshes[0].bsdf].textured_params);
     EXPECT_EQ(s.bsdfs[s.meshes[1].bsdf].type, BsdfType::RoughPlastic);
     EXPECT_TRUE(s.bsdfs[s.meshes[2].bsdf].two_sided);
     EXPECT_TRUE(s.bsdfs[s.meshes[3].bsdf].two_sided);
     EXPECT_EQ(s.bsdfs[s.meshes[4].bsdf].type, BsdfType::Dielectric);
+
+    // A bitmap deeper inside (in a scale) without a gamma is read as Mitsuba reads it, with a warning.
+    std::vector<std::string> warnings;
+    SceneLoadOptions o;
+    o.warnings = &warnings;
+    load_scene(d.write("deep.xml", scene_text(shape(
+                   "<bsdf type=\"bumpmap\"><texture type=\"scale\"><float name=\"scale\" value=\"0.1\"/><texture type=\"bitmap\">"
+                   "<string name=\"filename\" value=\"ramp.png\"/></texture></texture><bsdf type=\"diffuse\"/></bsdf>"))),
+               o);
+    int gamma_warnings = 0;
+    for (const std::string& w : warnings) gamma_warnings += w.find("height-map bitmap without an explicit gamma") != std::string::npos;
+    EXPECT_EQ(gamma_warnings, 1);
 
     auto expect_error = [&](const std::string& body, const std::string& fragment) {
         const std::string path = d.write("bad.xml", scene_text(body));
