@@ -1,4 +1,5 @@
 #include "tools/render/integrator.h"
+#include "libcommon/mutation.h"
 
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
@@ -224,7 +225,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
         RGB f_light(0.0f);
         if (light_found) {
             wo_light = hit.frame.to_local(ls.wi);
-            if (consistent_side(ls.wi, hit.ng, wo_light.z)) f_light = bsdf_eval(bsdf, wi, wo_light);
+            if (consistent_side(ls.wi, hit.ng, wo_light.z)) f_light = bsdf_eval(bsdf, wi, wo_light, IRIS_MUTANT(nee_importance_mode) ? TransportMode::Importance : TransportMode::Radiance);
         }
         if (cache >= 0) {
             alpha = ps.mode == GuideMode::NeeCache ? 0.0f : guide->bsdf_fraction(cache);
@@ -304,6 +305,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
                     const float p_bsdf = bsdf_pdf(bsdf, wi, wo_light);
                     const float p_mix = cache < 0 ? p_bsdf : mix_from(wo_light, p_bsdf, cache_pdf(nee_texel));
                     w = power_heuristic(ls.pdf, p_mix);
+                    if (IRIS_MUTANT(mis_weight_one)) w = 1.f;
                 }
                 L += beta * f_light * ls.radiance * (w / ls.pdf);
             }
@@ -772,6 +774,7 @@ Image render_image(const Scene& scene, const RenderOptions& opt, RenderStats* st
     ps.guide_vertices = opt.guide_vertices < 0 ? 1 : opt.guide_vertices == 0 ? 1 << 30 : opt.guide_vertices;
     if (!opt.guide && opt.mode == GuideMode::BsdfCache) ps.mode = GuideMode::BsdfCache;
     ps.max_depth = opt.max_depth >= -1 ? opt.max_depth : scene.defaults.max_depth;
+    if (IRIS_MUTANT(max_depth_one_short) && ps.max_depth > 1) --ps.max_depth;
     ps.rr_depth = opt.rr_depth >= -1 ? opt.rr_depth : scene.defaults.rr_depth;
     if (ps.rr_depth < 0) ps.rr_depth = 1 << 30;
     if (opt.rr_threshold != -1 && !(opt.rr_threshold > 0 && opt.rr_threshold <= 1))
