@@ -71,15 +71,15 @@ for f in photons.h5 caches.h5 atlas.h5; do
 done
 echo "=== render.exr: new against previous (compare-images NEW PREVIOUS)"
 if [[ -e "$rel/render.exr" ]]; then "$bin/compare-images" "$new/render.exr" "$rel/render.exr" || true; fi
-for f in "${files[@]}"; do mv "$new/$f" "$rel/$f"; done
-trap - ERR
-rm -rf "$new"
 {
   echo "# Made by tests/golden/regenerate.sh; test_golden_stages.cpp needs the tools of this commit (or of"
   echo "# code that computes the same) to reproduce the files to float tolerance."
   echo "commit $commit"
   echo "tools $("$bin/render" --version | head -1)"
-  cc="$(sed -n "s/^CMAKE_CXX_COMPILER:[A-Z]*=//p" "$bin/../CMakeCache.txt" 2>/dev/null | head -1)"; [[ -z "$cc" ]] || echo "compiler $cc"
-} >"$rel/PROVENANCE"
+  cc="$(sed -n "s/^CMAKE_CXX_COMPILER:[A-Z]*=//p" "$bin/../CMakeCache.txt" 2>/dev/null | head -1 || true)"; [[ -z "$cc" ]] || echo "compiler $cc"
+} >"$new/PROVENANCE"
+for f in "${files[@]}" PROVENANCE; do mv "$new/$f" "$rel/$f"; done
+trap - ERR
+rm -rf "$new"
 ls -l "${files[@]/#/$rel/}"
 echo "regenerate.sh: golden files written to $rel/ from commit $commit ($(du -ch "${files[@]/#/$rel/}" | tail -1 | cut -f1) in all)"
