@@ -50,3 +50,17 @@ struct TempDir {
 };
 
 }  // namespace iris::test
+
+namespace iris::test::cli {
+// The stage flags that the newer tests write, in one place: when the command line changes (named
+// settings, `--set name=value`), adapt these and not the tests.
+inline std::string photon_paths(long n) { return "--paths " + std::to_string(n); }           // trace-photons
+inline std::string photon_map(const std::string& f) { return "--photons " + f; }             // place-, fill-caches
+inline std::string cache_count(int n) { return "--count " + std::to_string(n); }             // place-caches
+inline std::string gather_count(int k) { return "--k " + std::to_string(k); }                // fill-caches
+inline std::string map_resolution(int r) { return "--resolution " + std::to_string(r); }     // fill-caches
+inline std::string filter_sigma(double s) { return "--filter-sigma " + std::to_string(s); }  // fill-caches
+inline std::string direct_photons() { return "--direct"; }                                   // fill-caches
+inline std::string mode(const std::string& m) { return "--mode " + m; }                      // render
+inline std::string caustics(const std::string& v) { return "--caustics " + v; }             // render
+}  // namespace iris::test::cli
