@@ -23,7 +23,9 @@
     X(light_sample_pdf_scale) \
     X(cosine_warp_squeezed)   \
     X(spheremap_pdf_skew)     \
-    X(photon_power_scale)
+    X(photon_power_scale)     \
+    X(product_pdf_scale)      \
+    X(connection_weight_one)
 
 namespace iris {
 

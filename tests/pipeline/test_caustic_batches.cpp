@@ -46,8 +46,12 @@ const char* kScene = R"(<?xml version="1.0"?>
     <bsdf type="diffuse"><rgb name="reflectance" value="0.5, 0.5, 0.5"/></bsdf>
   </shape>
   <shape type="rectangle">
-    <transform name="toWorld"><scale x="0.6" y="0.6"/><rotate x="1" angle="180"/><translate z="0.98"/></transform>
-    <emitter type="area"><rgb name="radiance" value="4, 4, 4"/></emitter>
+    <transform name="toWorld"><scale x="0.8" y="0.8"/><rotate x="1" angle="180"/><translate z="0.98"/></transform>
+    <emitter type="area"><rgb name="radiance" value="2, 2, 2"/></emitter>
+  </shape>
+  <shape type="rectangle">
+    <transform name="toWorld"><scale x="0.9" y="0.9"/><translate z="0.9"/></transform>
+    <bsdf type="thindielectric"><float name="intIOR" value="1.5"/></bsdf>
   </shape>
   <shape type="sphere">
     <point name="center" x="0" y="0" z="-0.6"/>
@@ -170,8 +174,8 @@ TEST(CausticBatches, LightTracedCausticsAgreeWithThePathTracerPerPixelThroughGla
     TempDir dir;
     const std::string scene = dir.file("scene.xml");
     std::ofstream(scene) << kScene;
-    const BatchStats traced = render_batches(scene, dir, "traced", "--spp 64 " + cli::caustics("on"), 1000);
-    const BatchStats plain = render_batches(scene, dir, "plain", "--spp 64", 2000);
+    const BatchStats traced = render_batches(scene, dir, "traced", "--spp 256 " + cli::caustics("on"), 1000);
+    const BatchStats plain = render_batches(scene, dir, "plain", "--spp 256", 2000);
     ASSERT_EQ(traced.w, 16);
     ASSERT_EQ(plain.w, traced.w);
     const int blocks = ((traced.w + kBlock - 1) / kBlock) * ((traced.h + kBlock - 1) / kBlock);

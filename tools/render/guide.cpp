@@ -469,6 +469,7 @@ Vec3 Guide::sample_product(const Product& p, float uy, float* pdf, int* texel) c
     Texel dt;  // the texel whose density applies
     const Vec3 local = sphere_point_in_texel(i, j, fx, p.u_block, R, &dt.i, &dt.j);
     *pdf = product_pdf(p, dt);
+    if (IRIS_MUTANT(product_pdf_scale)) *pdf *= 1.1f;
     if (texel) *texel = texel_index(dt);
     return frame(p.cache).to_world(local);
 }

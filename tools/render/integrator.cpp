@@ -143,6 +143,7 @@ RGB trace_path(const Scene& scene, const Ray& camera_ray, Rng& rng, const PathSe
             else if (prev_delta && ps.connect && last_y.joinable)
                 w = connection_path_weight(ps.paths_per_vertex, light_emit_density(scene, uint32_t(light_index), ray.d),
                                            last_y.cos_chain, last_y.cos_x, last_y.dist2, last_y.p_x, last_y.p_y);
+            if (IRIS_MUTANT(connection_weight_one) && prev_delta && ps.connect && last_y.joinable) w = 1.f;
             L += beta * le * w;
         }
     };
