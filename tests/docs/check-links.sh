@@ -15,7 +15,7 @@ while read -r md; do
   while read -r path; do
     path=${path%.}
     [[ -e $path ]] || { echo "$md: names $path, which does not exist" >&2; bad=1; }
-  done < <(grep -oE '(^|[^A-Za-z0-9_./-])docs/[A-Za-z0-9_./-]+\.(md|png|svg)' "$md" | sed -E 's/^[^d]//')
+  done < <(grep -oE '(^|[^A-Za-z0-9_./:-])docs/[A-Za-z0-9_./-]+\.(md|png|svg)' "$md" | sed -E 's/^[^d]//')
 done < <(ls README.md scenes/*/README.md; find docs -name '*.md' | sort)
 (( bad == 0 )) && echo "check-links: every link resolves"
 exit $bad
