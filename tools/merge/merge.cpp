@@ -5,7 +5,7 @@
 #include <cstdlib>
 
 #include "libcommon/film.h"
-#include "libcommon/tool_util.h"
+#include "tools/common/tool_util.h"
 #include "tools/render/film_parts.h"
 
 namespace iris {
