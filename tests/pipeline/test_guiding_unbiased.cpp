@@ -45,7 +45,7 @@ constexpr int kBlock = 4;        // block size in pixels for the intermediate sc
 struct Mode {
     const char* name;
     int spp;
-    bool direct_atlas;  // bsdf+cache has no NEE: its caches include the direct light (fill-caches --direct)
+    bool direct_atlas;  // bsdf+cache has no NEE: its caches include the direct light (fill-caches --set direct-photons=on)
     const char* extra = "";
 };
 // The last: the deep setting --mode auto may choose (every vertex guided, less roulette).
@@ -160,10 +160,10 @@ bool build_atlases(const std::string& scene, const TempDir& dir) {
         EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
         return r.status == 0;
     };
-    const std::string fill = tool("fill-caches") + " " + dir.file("caches.h5") + " -q --photons " +
-                             dir.file("photons.h5") + " --k 400";
-    return run(tool("trace-photons") + " " + scene + " -q --paths 50000 --seed 1 -o " + dir.file("photons.h5")) &&
-           run(tool("place-caches") + " " + scene + " -q --photons " + dir.file("photons.h5") + " --count 400 -o " +
+    const std::string fill = tool("fill-caches") + " " + dir.file("caches.h5") + " -q --photon-map " +
+                             dir.file("photons.h5") + " --set gather-count=400";
+    return run(tool("trace-photons") + " " + scene + " -q --set photon-paths=50000 --seed 1 -o " + dir.file("photons.h5")) &&
+           run(tool("place-caches") + " " + scene + " -q --photon-map " + dir.file("photons.h5") + " --set cache-count=400 -o " +
                dir.file("caches.h5")) &&
            run(fill + " -o " + dir.file("atlas.h5")) && run(fill + " --direct -o " + dir.file("atlas_direct.h5"));
 }
@@ -197,10 +197,10 @@ TEST(GuidingUnbiased, GuidedModesAgreeWithUnguidedPerPixel) {
     for (const Mode& m : kModes) {
         const std::string extra = m.extra;
         const std::string label = std::string(m.name) + (extra.find("--guide-vertices") != std::string::npos ? " (deep)" : "") +
-                                  (extra.find("--learn") != std::string::npos ? " (hybrid)" : "");
+                                  (extra.find("--set learn=on") != std::string::npos ? " (hybrid)" : "");
         SCOPED_TRACE(label + " " + m.extra);
         const Layers guided = render(scene, dir, "mode" + std::to_string(seed),
-                                     std::string("--mode ") + m.name + " --spp " + std::to_string(m.spp) +
+                                     std::string("--set pilot=off --set mode=") + m.name + " --spp " + std::to_string(m.spp) +
                                          " --seed " + std::to_string(seed) + " --atlas " +
                                          dir.file(m.direct_atlas ? "atlas_direct.h5" : "atlas.h5") + " " + m.extra);
         ++seed;
@@ -232,7 +232,7 @@ void expect_nee_modes_agree(const std::string& scene_file, const std::string& fl
     for (const char* mode : {"nee+cache", "nee+bsdf+cache"}) {
         SCOPED_TRACE(mode);
         const Layers guided = render(scene, dir, mode,
-                                     std::string("--mode ") + mode + " " + flags + spp_flag + " --seed " +
+                                     std::string("--set pilot=off --set mode=") + mode + " " + flags + spp_flag + " --seed " +
                                          std::to_string(seed++) + " --atlas " + dir.file("atlas.h5"));
         ASSERT_EQ(guided.w, unguided.w);
         const Verdict v = compare(guided, unguided, 1.0, z_crit);
@@ -256,7 +256,7 @@ TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) { expect_nee_modes_agree("
 // product also serves the tiles' reflections of each other and of the walls. Checked to fail: a product
 // density 10 % too large (Guide::product_pdf scaled) is rejected in both modes (block |z| 6.4-6.8).
 TEST(GuidingUnbiased, ProductWithGlossyLobesKeepsTheImage) {
-    expect_nee_modes_agree("guiding/glossy_tiles_box.xml", "--product on --guide-vertices 0");
+    expect_nee_modes_agree("guiding/glossy_tiles_box.xml", "--set product=on --set guide-vertices=0");
 }
 
 // Caustic connections (render --connect on, tools/render/connections.h): every non-Dirac vertex joins a
@@ -269,9 +269,9 @@ TEST(GuidingUnbiased, ProductWithGlossyLobesKeepsTheImage) {
 // tail. Checked to fail: the path tracer's weight left at 1 (those paths counted twice) is rejected
 // in every run (block |z| 10.7-15.3, image |z| 62-91).
 TEST(GuidingUnbiased, CausticConnectionsKeepTheImage) {
-    expect_nee_modes_agree("guiding/glass_lamp_box.xml", "--connect on --caustics on --guide-vertices 0 --rr-threshold 0.1",
+    expect_nee_modes_agree("guiding/glass_lamp_box.xml", "--set connect=on --set caustics=on --set guide-vertices=0 --set rr-threshold=0.1",
                            1024, 4096);
-    expect_nee_modes_agree("guiding/glass_lamp_box.xml", "--connect on", 1024, 4096);
+    expect_nee_modes_agree("guiding/glass_lamp_box.xml", "--set connect=on", 1024, 4096);
 }
 
 // The same through a thin pane (`thindielectric`) under the light instead of the slab
@@ -279,7 +279,7 @@ TEST(GuidingUnbiased, CausticConnectionsKeepTheImage) {
 // and photons, caches, the light tracer, its pools and the connections' weights all go through it.
 TEST(GuidingUnbiased, ThinPaneUnderTheLightKeepsTheImage) {
     expect_nee_modes_agree("guiding/thin_pane_box.xml",
-                           "--connect on --caustics on --guide-vertices 0 --rr-threshold 0.1", 1024, 4096);
+                           "--set connect=on --set caustics=on --set guide-vertices=0 --set rr-threshold=0.1", 1024, 4096);
 }
 
 // Light tracing of the caustics seen directly (render --caustics on, tools/render/caustics.h) splits path
@@ -328,9 +328,9 @@ TEST(CausticLightTracing, AgreesWithThePathTracerPerPixel) {
     ASSERT_LT(skipped, unguided.w * unguided.h / 2);
     const double z_crit = normal_critical(kAlpha / test_count(unguided, 2));
     const std::pair<const char*, std::string> runs[] = {
-        {"light-traced, unguided", "--caustics on --spp 1024 --seed 2"},
-        {"light-traced, every vertex guided", "--caustics on --spp 1024 --seed 3 --mode nee+bsdf+cache --atlas " +
-                                                  dir.file("atlas.h5") + " --guide-vertices 0 --rr-threshold 0.1"}};
+        {"light-traced, unguided", "--set caustics=on --spp 1024 --seed 2"},
+        {"light-traced, every vertex guided", "--set caustics=on --spp 1024 --seed 3 --set mode=nee+bsdf+cache --set pilot=off --atlas " +
+                                                  dir.file("atlas.h5") + " --set guide-vertices=0 --set rr-threshold=0.1"}};
     int i = 0;
     for (const auto& [label, args] : runs) {
         SCOPED_TRACE(label);
@@ -374,8 +374,8 @@ TEST(GuidingUnbiased, EnvmapSceneAgreesPerPixel) {
     const std::string scene = data_file("guiding/env_glass.xml");
     ASSERT_TRUE(build_atlases(scene, dir));
     expect_agrees_per_pixel(scene, dir, 512,
-                            {{"guided nee+bsdf+cache", "--mode nee+bsdf+cache --atlas " + dir.file("atlas.h5")},
-                             {"light-traced caustics", "--caustics on"}});
+                            {{"guided nee+bsdf+cache", "--set mode=nee+bsdf+cache --set pilot=off --atlas " + dir.file("atlas.h5")},
+                             {"light-traced caustics", "--set caustics=on"}});
 }
 
 // Caustic connections to vertices lit by an envmap through a specular chain: a greenhouse whose glass
@@ -391,7 +391,7 @@ TEST(GuidingUnbiased, EnvmapSceneAgreesPerPixel) {
 // 20-30, image |z| 86-190). A density of the opposite direction on one side is not: this sky is too
 // even for the weights' error to show.
 TEST(GuidingUnbiased, EnvmapConnectionsThroughAGlassRoof) {
-    expect_nee_modes_agree("guiding/env_greenhouse.xml", "--connect on --guide-vertices 0 --rr-threshold 0.1", 1024, 4096);
+    expect_nee_modes_agree("guiding/env_greenhouse.xml", "--set connect=on --set guide-vertices=0 --set rr-threshold=0.1", 1024, 4096);
 }
 
 // A textured scene (tests/data/guiding/textured_box.xml: bitmap and checkerboard reflectances, a
@@ -404,8 +404,8 @@ TEST(GuidingUnbiased, TexturedSceneAgreesPerPixel) {
     ASSERT_TRUE(build_atlases(scene, dir));
     const std::string atlas = " --atlas " + dir.file("atlas.h5");
     expect_agrees_per_pixel(scene, dir, 256,
-                            {{"guided nee+bsdf+cache", "--mode nee+bsdf+cache" + atlas},
-                             {"every vertex guided", "--mode nee+bsdf+cache --guide-vertices 0 --rr-threshold 0.1" + atlas}});
+                            {{"guided nee+bsdf+cache", "--set mode=nee+bsdf+cache --set pilot=off" + atlas},
+                             {"every vertex guided", "--set mode=nee+bsdf+cache --set pilot=off --set guide-vertices=0 --set rr-threshold=0.1" + atlas}});
 }
 
 // --mode auto weighs unguided sampling against guiding the first vertex and, unless the user fixed
@@ -418,7 +418,7 @@ TEST(GuidingAuto, WeighsEveryVertexOnlyWhereTheUserLeftTheChoice) {
     ASSERT_TRUE(build_atlases(scene, dir));
     auto metadata = [&](const std::string& name, const std::string& extra) {
         const std::string out = dir.file(name + ".exr");
-        const std::string cmd = tool("render") + " " + scene + " -q --spp 16 --mode auto --atlas " +
+        const std::string cmd = tool("render") + " " + scene + " -q --spp 16 --set pilot=on --atlas " +
                                 dir.file("atlas.h5") + " -o " + out + " " + extra;
         ToolResult r = run_command(cmd);
         EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
@@ -444,15 +444,15 @@ TEST(GuidingAuto, WeighsEveryVertexOnlyWhereTheUserLeftTheChoice) {
     EXPECT_TRUE(has(m["iris:caustics"], "light-traced, ")) << m["iris:caustics"];
     EXPECT_NE(m["iris:light_paths"], "0");
 
-    m = metadata("two", "--guide-vertices 2");
+    m = metadata("two", "--set guide-vertices=2");
     EXPECT_TRUE(has(m["iris:auto_guide"], "first 2 vertices, roulette below 0.3 from depth 5 ")) << m["iris:auto_guide"];
     EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
 
-    m = metadata("rr", "--rr-depth 7");
+    m = metadata("rr", "--set rr-depth=7");
     EXPECT_TRUE(has(m["iris:auto_guide"], "first vertex, roulette below 0.3 from depth 7 ")) << m["iris:auto_guide"];
     EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
 
-    m = metadata("threshold", "--rr-threshold 1");
+    m = metadata("threshold", "--set rr-threshold=1");
     EXPECT_TRUE(has(m["iris:auto_guide"], "first vertex, roulette below 1 from depth 5 ")) << m["iris:auto_guide"];
     EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
 }
@@ -472,7 +472,7 @@ void expect_nee_agrees_with_bsdf_sampling(const std::string& scene_file, const s
     for (const std::string& variant : variants) {
         SCOPED_TRACE(variant);
         const Layers nee = render(scene, dir, "nee", "--spp 1024 --seed 1 " + variant);
-        const Layers bsdf = render(scene, dir, "bsdf", "--mode bsdf+cache --spp 4096 --seed 2 " + variant);
+        const Layers bsdf = render(scene, dir, "bsdf", "--set mode=bsdf+cache --set pilot=off --spp 4096 --seed 2 " + variant);
         ASSERT_EQ(nee.w, 16);
         ASSERT_EQ(bsdf.w, nee.w);
         const double z_crit = normal_critical(kAlpha / test_count(nee, 2 * int(variants.size())));
