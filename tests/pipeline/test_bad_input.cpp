@@ -467,7 +467,7 @@ const BadInputCase kCases[] = {
     {"MergeImagesOverlap", "merge-images", "parts whose sample ranges overlap (0:2, 1:3)", "{in}/part_a.exr {in}/part_overlap.exr -o {out}", "overlap: both hold samples 1:2"},
     {"MergeImagesMissingRange", "merge-images", "a part missing (0:2 of 4 spp given)", "{in}/part_a.exr -o {out}", "samples 2:4 missing"},
     {"MergeImagesOtherScene", "merge-images", "parts of different scenes", "{in}/part_a.exr {in}/part_other_scene.exr -o {out}", "another scene"},
-    {"MergeImagesOtherSettings", "merge-images", "parts with different --max-depth", "{in}/part_a.exr {in}/part_depth.exr -o {out}", "max_depth 3"},
+    {"MergeImagesOtherSettings", "merge-images", "parts with different max-depth", "{in}/part_a.exr {in}/part_depth.exr -o {out}", "max-depth=3"},
     {"MergeImagesNotAPart", "merge-images", "a whole render given as a part", "{in}/part_a.exr {in}/image.exr -o {out}", "image.exr: not a part"},
     {"MergeImagesTruncated", "merge-images", "a part cut off midway", "{in}/part_a.exr {in}/truncated_part_b.exr -o {out}", "truncated_part_b.exr"},
     {"MergeImagesSamePartTwice", "merge-images", "one part given twice", "{in}/part_a.exr {in}/part_a.exr {in}/part_b.exr -o {out}", "overlap"},
@@ -477,7 +477,7 @@ const BadInputCase kCases[] = {
     {"MergePhotonsOverlap", "merge-photons", "parts whose path ranges overlap (0:1000, 500:1500)", "{in}/photons_a.h5 {in}/photons_overlap.h5 -o {out}", "overlap: both hold paths 500:1000"},
     {"MergePhotonsMissingRange", "merge-photons", "a part missing (1000:2000 of 2000 paths)", "{in}/photons_b.h5 -o {out}", "paths 0:1000 missing"},
     {"MergePhotonsOtherScene", "merge-photons", "parts of different scenes", "{in}/photons_a.h5 {in}/photons_other_scene.h5 -o {out}", "another scene"},
-    {"MergePhotonsOtherSettings", "merge-photons", "parts with different --max-depth", "{in}/photons_a.h5 {in}/photons_depth.h5 -o {out}", "max_depth"},
+    {"MergePhotonsOtherSettings", "merge-photons", "parts with different photon-depth", "{in}/photons_a.h5 {in}/photons_depth.h5 -o {out}", "max_depth"},
     {"MergePhotonsNotAPart", "merge-photons", "a whole photon map given as a part", "{in}/photons_a.h5 {in}/photons.h5 -o {out}", "photons.h5: not a part"},
     {"MergePhotonsTruncated", "merge-photons", "a part cut off midway", "{in}/photons_a.h5 {in}/truncated_photons_b.h5 -o {out}", "truncated_photons_b.h5"},
 
