@@ -196,7 +196,7 @@ TEST(GuidingUnbiased, GuidedModesAgreeWithUnguidedPerPixel) {
     int seed = 2;
     for (const Mode& m : kModes) {
         const std::string extra = m.extra;
-        const std::string label = std::string(m.name) + (extra.find("--guide-vertices") != std::string::npos ? " (deep)" : "") +
+        const std::string label = std::string(m.name) + (extra.find("guide-vertices=") != std::string::npos ? " (deep)" : "") +
                                   (extra.find("--set learn=on") != std::string::npos ? " (hybrid)" : "");
         SCOPED_TRACE(label + " " + m.extra);
         const Layers guided = render(scene, dir, "mode" + std::to_string(seed),

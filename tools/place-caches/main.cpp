@@ -76,8 +76,8 @@ int main(int argc, char** argv) {
         if (skip)  // said even with -q: it decides what the render does
             std::fprintf(stderr,
                          "place-caches: no caches: %.2f %% of the photon power arrives through specular chains "
-                         "(min-caustic-share=%g %%), so the render stays unguided; wrote %s\n",
-                         100 * caustic_share, 100 * min_caustic_share, output.c_str());
+                         "(below min-caustic-share=%g), so the render stays unguided; wrote %s\n",
+                         100 * caustic_share, min_caustic_share, output.c_str());
         else if (!opt.quiet)
             std::fprintf(stderr, "place-caches: wrote %s (%u camera + %u photon caches, %llu of %zu photons %s, %.2f s)\n",
                          output.c_str(), stats.camera, stats.photon, (unsigned long long)stats.eligible,
