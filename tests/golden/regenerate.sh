@@ -7,8 +7,8 @@
 # What it runs (arguments from stages.args, from the repository root, so that the provenance in the
 # files records relative paths):
 #   trace-photons SCENE                                     -> photons.h5
-#   place-caches  SCENE --photons photons.h5                -> caches.h5
-#   fill-caches   caches.h5 --photons photons.h5            -> atlas.h5
+#   place-caches  SCENE --photon-map photons.h5             -> caches.h5
+#   fill-caches   caches.h5 --photon-map photons.h5         -> atlas.h5
 #   render        SCENE --atlas atlas.h5 --variance         -> render.exr
 #
 # When to run it: after a deliberate change to a stage's results -- its algorithm, its random number

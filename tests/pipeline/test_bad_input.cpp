@@ -399,7 +399,7 @@ const BadInputCase kCases[] = {
     {"TracePhotonsTextPaths", "trace-photons", "--set photon-paths=abc", "{in}/valid.xml --set photon-paths=abc -o {out}", "photon-paths"},
     {"TracePhotonsZeroPhotons", "trace-photons", "--set photon-count=0", "{in}/valid.xml --set photon-count=0 -o {out}", "photon-count"},
     {"TracePhotonsPhotonsWithPathRange", "trace-photons", "photon-count with --path-range", "{in}/caustic.xml --set photon-count=1000 --path-range 0:10 -o {out}", "--path-range needs the setting photon-paths"},
-    {"TracePhotonsPathRangeBeyond", "trace-photons", "--path-range beyond --paths", "{in}/caustic.xml --set photon-paths=100 --path-range 50:200 -o {out}", "--path-range 50:200"},
+    {"TracePhotonsPathRangeBeyond", "trace-photons", "--path-range beyond photon-paths", "{in}/caustic.xml --set photon-paths=100 --path-range 50:200 -o {out}", "--path-range 50:200"},
     {"TracePhotonsPathRangeReversed", "trace-photons", "--path-range 5:2", "{in}/caustic.xml --set photon-paths=100 --path-range 5:2 -o {out}", "--path-range"},
     {"TracePhotonsZeroDepth", "trace-photons", "--set photon-depth=0", "{in}/valid.xml --set photon-depth=0 -o {out}", "photon-depth"},
     {"TracePhotonsNegativeDepth", "trace-photons", "--set photon-depth=-3", "{in}/valid.xml --set photon-depth=-3 -o {out}", "photon-depth"},

@@ -92,8 +92,8 @@ TEST_F(GuidingCli, TracePhotonsIsDeterministicForAnyThreadCount) {
     EXPECT_TRUE(c.size() != a.size() || c.position[0][0] != a.position[0][0]) << "the seed has no effect";
 }
 
-// --photons M: the path count comes from photons per path on a probe of the first paths, so the map
-// holds about M photons and is, bit for bit, the map of --paths with that count; the count does not depend
+// photon-count=M: the path count comes from photons per path on a probe of the first paths, so the map
+// holds about M photons and is, bit for bit, the map of photon-paths with that count; the count does not depend
 // on the thread count.
 TEST_F(GuidingCli, TracePhotonsByPhotonCountIsTheMapOfItsPathCount) {
     TempDir d;
@@ -142,7 +142,7 @@ TEST_F(GuidingCli, PlaceAndFillCachesAreDeterministicForAnyThreadCount) {
     EXPECT_EQ(a1.usable, a2.usable);
 }
 
-// Skipping what a scene does not need: with --min-caustic-share, place-caches places no cache where
+// Skipping what a scene does not need: with min-caustic-share, place-caches places no cache where
 // less than that share of the photon power came through a specular chain, says so even with -q, and
 // the empty set flows through fill-caches to a render that stays unguided (no pilot) and records why.
 // The caustic box (glass sphere) keeps its caches at the pipeline's default share.

@@ -16,7 +16,7 @@
 // (above the threshold of ~4.9 in three), the NEE modes' at most 3.8. At 4096 spp bsdf+cache's largest
 // |z| in six runs was 4.3. So bsdf+cache renders 4096 spp, the others 1024 (about 20 s in all on two
 // cores). nee+bsdf+cache runs twice: as the fixed mode renders it (the first vertex guided) and as the
-// deep setting --mode auto may choose (every vertex guided, Russian roulette below throughput 0.1). The per-pixel test cannot see a 5 % bias in bsdf+cache (its pixels are too noisy: |z| <= 3.9
+// deep setting the pilot may choose (every vertex guided, Russian roulette below throughput 0.1). The per-pixel test cannot see a 5 % bias in bsdf+cache (its pixels are too noisy: |z| <= 3.9
 // for the scaled image); the block and image tests can. And the test proves its power: every mode's
 // guided image scaled by 1.05 must be rejected (measured in six runs: per-pixel |z| 6.5-8.8 for the NEE
 // modes, image-mean |z| 13-18 for all three modes).
@@ -48,15 +48,15 @@ struct Mode {
     bool direct_atlas;  // bsdf+cache has no NEE: its caches include the direct light (fill-caches --set direct-photons=on)
     const char* extra = "";
 };
-// The last: the deep setting --mode auto may choose (every vertex guided, less roulette).
-// The last two: hybrid caches (render --learn), the maps refit from photons and path samples after
+// The last: the deep setting the pilot may choose (every vertex guided, less roulette).
+// The last two: hybrid caches (render --set learn=on), the maps refit from photons and path samples after
 // 1, 2, 4, ... 512 spp, the fixed and the deep setting.
 const Mode kModes[] = {{"nee+cache", 1024, false},
                        {"bsdf+cache", 4096, true},
                        {"nee+bsdf+cache", 1024, false},
-                       {"nee+bsdf+cache", 1024, false, "--guide-vertices 0 --rr-threshold 0.1"},
-                       {"nee+bsdf+cache", 1024, false, "--learn"},
-                       {"nee+bsdf+cache", 1024, false, "--guide-vertices 0 --rr-threshold 0.1 --learn"}};
+                       {"nee+bsdf+cache", 1024, false, "--set guide-vertices=0 --set rr-threshold=0.1"},
+                       {"nee+bsdf+cache", 1024, false, "--set learn=on"},
+                       {"nee+bsdf+cache", 1024, false, "--set guide-vertices=0 --set rr-threshold=0.1 --set learn=on"}};
 constexpr int kModeCount = 6;
 
 // Two-sided normal critical value for tail probability p: z with erfc(z / sqrt 2) = p (bisection).
@@ -165,7 +165,7 @@ bool build_atlases(const std::string& scene, const TempDir& dir) {
     return run(tool("trace-photons") + " " + scene + " -q --set photon-paths=50000 --seed 1 -o " + dir.file("photons.h5")) &&
            run(tool("place-caches") + " " + scene + " -q --photon-map " + dir.file("photons.h5") + " --set cache-count=400 -o " +
                dir.file("caches.h5")) &&
-           run(fill + " -o " + dir.file("atlas.h5")) && run(fill + " --direct -o " + dir.file("atlas_direct.h5"));
+           run(fill + " -o " + dir.file("atlas.h5")) && run(fill + " --set direct-photons=on -o " + dir.file("atlas_direct.h5"));
 }
 
 // Renders `scene` with --variance into DIR/NAME.exr and returns its layers.
@@ -250,7 +250,7 @@ void expect_nee_modes_agree(const std::string& scene_file, const std::string& fl
 TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) { expect_nee_modes_agree("guiding/layered_tiles_box.xml", ""); }
 
 // The same on glossy metal tiles (a rough conductor, a Ward without a diffuse part), where the cache
-// technique samples the map's product with the glossy lobe (render --product on, Guide::product): its
+// technique samples the map's product with the glossy lobe (render --set product=on, Guide::product): its
 // density p = d_k e_K / Z must be the one its samples come from, with MIS against NEE and the BSDF, and
 // in nee+cache (no BSDF technique) its support must cover the lobe's. Every vertex guided, so that the
 // product also serves the tiles' reflections of each other and of the walls. Checked to fail: a product
@@ -259,7 +259,7 @@ TEST(GuidingUnbiased, ProductWithGlossyLobesKeepsTheImage) {
     expect_nee_modes_agree("guiding/glossy_tiles_box.xml", "--set product=on --set guide-vertices=0");
 }
 
-// Caustic connections (render --connect on, tools/render/connections.h): every non-Dirac vertex joins a
+// Caustic connections (render --set connect=on, tools/render/connections.h): every non-Dirac vertex joins a
 // light vertex behind a specular chain, weighed by the power heuristic against the path tracer's own
 // emitter hits after such chains. The two weights must sum to one for every path, with the densities of
 // the guided mixture at both ends of the connecting edge, with the caustics seen directly light-traced
@@ -282,10 +282,10 @@ TEST(GuidingUnbiased, ThinPaneUnderTheLightKeepsTheImage) {
                            "--set connect=on --set caustics=on --set guide-vertices=0 --set rr-threshold=0.1", 1024, 4096);
 }
 
-// Light tracing of the caustics seen directly (render --caustics on, tools/render/caustics.h) splits path
+// Light tracing of the caustics seen directly (render --set caustics=on, tools/render/caustics.h) splits path
 // space with the path tracer: the path tracer drops the caustic class and the light tracer adds it, so
 // the image must still be the plain path tracer's, per pixel -- unguided and with the deep guided
-// setting (every vertex guided; the guiding pilot of --mode auto weighs the camera paths that remain).
+// setting (every vertex guided; the guiding pilot weighs the camera paths that remain).
 // On the caustic box the class is about a tenth of the image's brightness (measured: the light tracer's
 // mean over all pixels 0.0166 against the image's mean luminance 0.170), nearly all of it in the caustic
 // beside the sphere's foot: a light tracer that lost or doubled its part, or got its
@@ -408,8 +408,8 @@ TEST(GuidingUnbiased, TexturedSceneAgreesPerPixel) {
                              {"every vertex guided", "--set mode=nee+bsdf+cache --set pilot=off --set guide-vertices=0 --set rr-threshold=0.1" + atlas}});
 }
 
-// --mode auto weighs unguided sampling against guiding the first vertex and, unless the user fixed
-// --guide-vertices, --rr-depth or --rr-threshold, guiding every vertex with Russian roulette only below
+// The pilot (render --atlas) weighs unguided sampling against guiding the first vertex and, unless the user
+// set guide-vertices, rr-depth or rr-threshold, guiding every vertex with Russian roulette only below
 // throughput 0.1 (the default threshold is 0.3; the caustic box's rrDepth is the default, 5); the image
 // records every candidate the pilot measured and the setting it rendered with, and renders what it chose.
 TEST(GuidingAuto, WeighsEveryVertexOnlyWhereTheUserLeftTheChoice) {

@@ -1,4 +1,4 @@
-// Hybrid caches (render --learn): the caches' maps refit from photons plus the radiance the render's
+// Hybrid caches (render --set learn=on): the caches' maps refit from photons plus the radiance the render's
 // paths receive. Their unbiasedness is tested per pixel in test_guiding_unbiased.cpp; here, what the
 // refit must keep besides: the image is a function of the seed and the samples per pixel (not of the
 // thread count), the refit changes the maps (else the per-pixel test proves nothing about them), the

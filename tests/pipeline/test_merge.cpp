@@ -81,7 +81,7 @@ TEST(Merge, GuidedRenderRangesComposeToOneRun) {
     EXPECT_EQ(r.status, 0) << r.output;
 }
 
-// The caustic light tracer (--caustics on): its splats' sums merge too.
+// The caustic light tracer (caustics=on): its splats' sums merge too.
 TEST(Merge, LightTracedRenderRangesComposeToOneRun) {
     TempDir dir;
     const std::string base = tool("render") + " " + data_file("guiding/caustic_box.xml") +

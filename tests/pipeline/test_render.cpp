@@ -106,7 +106,7 @@ TEST(RenderCli, SameSeedSameImageForAnyThreadCount) {
 }
 
 // The caustic light tracer's splats are summed in path order whatever the threads (caustics.h): the
-// caustic box (a glass sphere, a Gaussian-free box filter) with --caustics on gives identical images.
+// caustic box (a glass sphere, a Gaussian-free box filter) with caustics=on gives identical images.
 TEST(RenderCli, LightTracedCausticsAreTheSameForAnyThreadCount) {
     TempDir dir;
     const std::string scene = data_file("guiding/caustic_box.xml");

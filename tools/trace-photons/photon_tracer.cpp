@@ -83,7 +83,7 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
     const uint64_t first = o.path_end > 0 ? o.path_begin : 0, last = o.path_end > 0 ? o.path_end : o.paths;
     if (!(first < last && last <= o.paths))
         throw std::runtime_error("--path-range " + std::to_string(first) + ":" + std::to_string(last) +
-                                 " is not within the " + std::to_string(o.paths) + " paths (0 <= A < B <= --paths)");
+                                 " is not within the " + std::to_string(o.paths) + " paths (0 <= A < B <= photon-paths)");
     int threads = o.threads > 0 ? o.threads : int(std::max(1u, std::thread::hardware_concurrency()));
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));
     const uint64_t chunks = (last - first + kChunk - 1) / kChunk;
