@@ -393,7 +393,6 @@ const BadInputCase kCases[] = {
     {"RenderOutputIsDirectory", "render", "output path is a folder", "{in}/valid.xml -o {in}/adir", "directory"},
 
     // ---- trace-photons ----
-    {"TracePhotonsZeroPaths", "trace-photons", "--set photon-paths=0", "{in}/valid.xml --set photon-paths=0 -o {out}", "photon-paths"},
     {"TracePhotonsCausticShareAboveOne", "trace-photons", "--set min-caustic-share=2", "{in}/valid.xml --set min-caustic-share=2 -o {out}", "min-caustic-share"},
     {"TracePhotonsNegativePaths", "trace-photons", "--set photon-paths=-5 (once wrapped to 2^64-5)", "{in}/valid.xml --set photon-paths=-5 -o {out}", "photon-paths"},
     {"TracePhotonsTextPaths", "trace-photons", "--set photon-paths=abc", "{in}/valid.xml --set photon-paths=abc -o {out}", "photon-paths"},

@@ -23,7 +23,7 @@ const std::vector<SettingRow> kTable = {
      "About this many photons are stored: the paths to emit are measured on the first 32768 (at most 2^26 paths)"},
     {K::Integer, "photon-paths", kTracePhotons, "0", {}, 0, 1e12, false, false, "paths",
      "Emit exactly this many photon paths instead (0 = as many as photon-count asks; --path-range needs it)"},
-    {K::Integer, "photon-depth", kTracePhotons, "30", {}, -1, 1e9, false, false, "segments",
+    {K::Integer, "photon-depth", kTracePhotons, "30", {"-1"}, 1, 1e9, false, false, "segments",
      "Longest photon path (light -> first hit = 1), -1 = unlimited"},
     {K::Integer, "photon-rr-depth", kTracePhotons, "3", {}, 1, 1e9, false, false, "bounces",
      "Russian roulette of photon paths from this many bounces on"},
