@@ -100,7 +100,7 @@ $(OUT)/atlas.h5: $(OUT)/atlas.params $(OUT)/caches.h5 $(OUT)/photons.h5
 	@$(call timed,$(OUT)/atlas.seconds,$(CMD_atlas))
 
 $(OUT)/guided.exr: $(OUT)/guided.params $(OUT)/atlas.h5 $(SCENE)
-	@echo "[4/4] render (guided $(strip $(RENDER_SET) $(GUIDED_SET))): $(BUDGET)"
+	@echo "[4/4] render (guided$(if $(strip $(RENDER_SET) $(GUIDED_SET)),: $(strip $(RENDER_SET) $(GUIDED_SET)))): $(BUDGET)"
 	@$(CMD_guided)
 
 # Depends on the atlas too: when preprocessing re-ran, its time changed and so did this budget.
@@ -121,7 +121,7 @@ $(OUT)/comparison.txt: $(OUT)/guided.exr $(OUT)/unguided.exr $(REF)
 	@{ echo "scene: $(SCENE)"; \
 	   echo "reference: $(REF) ($(REF_SPP) spp, unguided)"; \
 	   echo "preprocessing: $$(cat $(OUT)/photons.seconds) s photons + $$(cat $(OUT)/caches.seconds) s caches + $$(cat $(OUT)/atlas.seconds) s atlas"; \
-	   echo; echo "== guided $(strip $(RENDER_SET) $(GUIDED_SET)), $(TIME) s render + preprocessing =="; \
+	   echo; echo "== guided$(if $(strip $(RENDER_SET) $(GUIDED_SET)), ($(strip $(RENDER_SET) $(GUIDED_SET)))), $(TIME) s render + preprocessing =="; \
 	   $(BIN)/compare-images $(OUT)/guided.exr --metadata | sed -n 's/^iris:auto_guide /auto: /p'; \
 	   $(BIN)/compare-images $(OUT)/guided.exr $(REF) -o $(OUT)/guided.error.png --error-scale 0.05; \
 	   echo; echo "== unguided (nee+bsdf), same total time =="; \
