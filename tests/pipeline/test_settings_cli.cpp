@@ -51,6 +51,20 @@ TEST(SettingsCli, ListSettingsPrintsEachToolsRows) {
     EXPECT_EQ(run_command(tool("render") + " --list-settings").output.find("photon-count"), std::string::npos);
 }
 
+// render --help lists only the everyday flags (PLAN's command line: 16 and --help, --version); every
+// technique knob is a setting.
+TEST(SettingsCli, RenderHelpListsTheEverydayFlagsOnly) {
+    const ToolResult r = run_command(tool("render") + " --help");
+    ASSERT_EQ(r.status, 0) << r.output;
+    std::istringstream in(r.output.substr(r.output.find("Options:")));
+    std::string line;
+    int options = 0;
+    while (std::getline(in, line)) options += line.rfind("  -", 0) == 0;
+    EXPECT_LE(options, 18) << r.output;
+    for (const char* gone : {"--mode", "--caustics", "--connect", "--guide-vertices", "--max-depth", "--learn"})
+        EXPECT_EQ(r.output.find(std::string(gone) + " "), std::string::npos) << gone;
+}
+
 TEST(SettingsCli, BadSettingsAreOneLineErrorsNamingTheSetting) {
     TempDir dir;
     const std::string scene = data_file("guiding/caustic_box.xml");
