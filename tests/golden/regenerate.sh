@@ -7,8 +7,8 @@
 # What it runs (arguments from stages.args, from the repository root, so that the provenance in the
 # files records relative paths):
 #   trace-photons SCENE                                     -> photons.h5
-#   place-caches  SCENE --photons photons.h5                -> caches.h5
-#   fill-caches   caches.h5 --photons photons.h5            -> atlas.h5
+#   place-caches  SCENE --photon-map photons.h5             -> caches.h5
+#   fill-caches   caches.h5 --photon-map photons.h5         -> atlas.h5
 #   render        SCENE --atlas atlas.h5 --variance         -> render.exr
 #
 # When to run it: after a deliberate change to a stage's results -- its algorithm, its random number
@@ -56,8 +56,8 @@ read -ra fill_args <<<"$(args fill-caches)"
 read -ra render_args <<<"$(args render)"
 # (The command lines recorded in the files name the scratch folder for the previous stage's output.)
 "$bin/trace-photons" "$scene" -q "${trace_args[@]}" -o "$new/photons.h5"
-"$bin/place-caches" "$scene" -q --photons "$new/photons.h5" "${place_args[@]}" -o "$new/caches.h5"
-"$bin/fill-caches" "$new/caches.h5" -q --photons "$new/photons.h5" "${fill_args[@]}" -o "$new/atlas.h5"
+"$bin/place-caches" "$scene" -q --photon-map "$new/photons.h5" "${place_args[@]}" -o "$new/caches.h5"
+"$bin/fill-caches" "$new/caches.h5" -q --photon-map "$new/photons.h5" "${fill_args[@]}" -o "$new/atlas.h5"
 "$bin/render" "$scene" -q --atlas "$new/atlas.h5" "${render_args[@]}" -o "$new/render.exr"
 # The statistics of every file, previous against new (lines starting - are the previous file's).
 for f in photons.h5 caches.h5 atlas.h5; do

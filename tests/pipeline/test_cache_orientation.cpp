@@ -3,7 +3,7 @@
 // samples and evaluates the same wrong map), so the agreement and chi-square tests cannot see it.
 // This test looks at the maps themselves: on an open floor lit by one small sphere light, with a
 // vertical mirror beside it, the light reaches the floor along two directions only, from the light and
-// from its mirror image. With fill-caches counting the photons straight from the light (--direct), each
+// from its mirror image. With fill-caches counting the photons straight from the light (direct-photons=on), each
 // usable cache's map must put its mode (its densest texel) within a stated angle of one of them.
 //
 // The angle, from the map's geometry and the fill's settings (all in radians):

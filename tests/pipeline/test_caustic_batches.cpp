@@ -1,5 +1,5 @@
 // Power where the techniques act (issue 46, item 2): a per-pixel agreement test that keeps the pixels
-// seen through glass and the caustic, where light tracing of the caustics (render --caustics on) and
+// seen through glass and the caustic, where light tracing of the caustics (render --set caustics=on) and
 // guiding change the estimator -- and that rejects a bias confined there.
 //
 // Why batches: through glass and in a caustic the path tracer's samples are heavy-tailed, and a render's

@@ -178,7 +178,7 @@ TEST(GoldenStages, TracePhotonsReproducesTheGoldenPhotons) {
 // ~0.5 degree, same origin), count within 2 %, camera caches within 2.
 TEST(GoldenStages, PlaceCachesReproducesTheGoldenCaches) {
     TempDir dir;
-    run_stage(tool("place-caches") + " " + scene_path() + " -q --photons " + golden("photons.h5") + " " +
+    run_stage(tool("place-caches") + " " + scene_path() + " -q --photon-map " + golden("photons.h5") + " " +
               args("place-caches") + " -o " + dir.file("c.h5"));
     if (HasFatalFailure()) return;
     const CachePoints g = read_cache_points(golden("caches.h5")).caches;
@@ -214,7 +214,7 @@ TEST(GoldenStages, PlaceCachesReproducesTheGoldenCaches) {
 // for >= 99 % of caches.
 TEST(GoldenStages, FillCachesReproducesTheGoldenAtlas) {
     TempDir dir;
-    run_stage(tool("fill-caches") + " " + golden("caches.h5") + " -q --photons " + golden("photons.h5") + " " +
+    run_stage(tool("fill-caches") + " " + golden("caches.h5") + " -q --photon-map " + golden("photons.h5") + " " +
               args("fill-caches") + " -o " + dir.file("a.h5"));
     if (HasFatalFailure()) return;
     const CacheAtlas g = read_cache_atlas(golden("atlas.h5")).atlas;
@@ -253,7 +253,7 @@ TEST(GoldenStages, FillCachesReproducesTheGoldenAtlas) {
 // allowed beyond (a path whose roulette or reflect/refract decision a last-bit difference turns; one
 // such path moves one pixel), and each channel's image mean within 1e-4 relative. A 1 % change in
 // what the renderer computes moves every lit pixel by ~1 %, a thousand times the tolerance; one bounce
-// less (--max-depth 7 instead of the scene's 8, RenderWithOneBounceLessFails below) moves the means by
+// less (max-depth=7 instead of the scene's 8, RenderWithOneBounceLessFails below) moves the means by
 // ~2-3 %. Another compiler or FMA contraction (-march=native -ffp-contract=fast) diverts most paths
 // and fails this test: the golden files are per machine kind and compiler, and PROVENANCE says which
 // commit made them.
@@ -321,13 +321,13 @@ TEST(GoldenStages, RenderReproducesTheGoldenImage) {
 // The test above bites: one bounce less (a real ~2 % energy loss on this closed box) fails it.
 TEST(GoldenStages, RenderWithOneBounceLessFails) {
     TempDir dir;
-    const Image n = render_golden_command(dir, "--max-depth 7");
+    const Image n = render_golden_command(dir, cli::max_depth(7));
     if (HasFatalFailure()) return;
     const Image g = read_exr(golden("render.exr"));
     ASSERT_EQ(g.metadata.at("iris:max_depth"), "8") << "the golden scene's depth changed; adapt this test";
     ASSERT_EQ(n.width, g.width);
     const RenderAgreement a = render_agreement(n, g);
-    std::printf("--max-depth 7:\n%s", a.log.c_str());
+    std::printf("max-depth=7:\n%s", a.log.c_str());
     EXPECT_FALSE(a.ok()) << "the golden render test cannot tell one bounce less:\n" << a.log;
 }
 
