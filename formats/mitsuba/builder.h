@@ -10,12 +10,13 @@
 //   emitters.cpp  <emitter> plugins
 //
 // Adding a plugin: write one function in the file of its kind, with the signature of that kind's
-// table (BsdfBuilder, TextureBuilder, MeshShapeBuilder, EmitterBuilder, in the file), and add one row
-// {"name", function} to the table there. The function queries its parameters from the Plugin with
-// the XmlReader getters (b.get_float(p, "name", default), ...) in the order Mitsuba documents them;
-// the dispatcher then calls finish(), which rejects every parameter the function did not query.
-// Then add its test (tests/unit/test_scene_loader.cpp or a file beside it) and a row in DESIGN.md's
-// list of supported plugins.
+// table (BsdfBuilder, TextureBuilder, ShapeBuilder -- or MeshBuilder wrapped in mesh_shape<> for a
+// mesh -- and EmitterBuilder, each in its file), and add one row {"name", function} to the table
+// there (kBsdfs, kTextures, kShapes, kEmitters). The function queries its parameters from the Plugin
+// with the XmlReader getters (b.get_float(p, "name", default), ...), with Mitsuba's names and
+// defaults; the dispatcher then calls finish(), which rejects every parameter the function did not
+// query. Then add its test (tests/unit/test_scene_loader.cpp or a file beside it) and a line in
+// DESIGN.md's list of supported plugins. formats/README.md says the same.
 #pragma once
 
 #include <cstdint>

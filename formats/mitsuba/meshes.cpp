@@ -164,7 +164,7 @@ void SceneBuilder::instance(Plugin& p) {
     pugi::xml_node ref;
     for (pugi::xml_node c : p.children) {
         if (std::string_view(c.name()) != "ref")
-            fail(src, src.line_of(c), "<" + std::string(c.name()) + "> is not allowed inside an instance (only a <ref> to a shapegroup)");
+            fail(src, src.line_of(c), std::string("<") + c.name() + "> is not allowed inside an instance (only a <ref> to a shapegroup)");
         if (ref) fail(src, src.line_of(c), "an instance refers to one shapegroup; this is a second <ref>");
         ref = c;
     }

@@ -82,8 +82,9 @@ void SceneBuilder::medium(const Source& src, pugi::xml_node n) {
     const int line = src.line_of(n);
     std::string id = opt_attr(src, n, "id").value_or("");
     register_id(src, line, id, "medium");
-    warn(src, line, "medium" + (id.empty() ? std::string() : " " + quote(id)) +
-                        " ignored: iris renders no participating media, and no shape refers to it");
+    std::string label = "medium";
+    if (!id.empty()) label.append(" ").append(quote(id));
+    warn(src, line, label + " ignored: iris renders no participating media, and no shape refers to it");
 }
 
 std::string name_list(const std::vector<std::string>& names, const char* last_separator) {

@@ -107,7 +107,7 @@ FilmSettings SceneBuilder::read_film(const Source& src, pugi::xml_node n) {
     bool have_filter = false;
     for (pugi::xml_node c : p.children) {
         if (std::string_view(c.name()) != "rfilter")
-            fail(src, src.line_of(c), "<" + std::string(c.name()) + "> is not allowed inside a film");
+            fail(src, src.line_of(c), std::string("<") + c.name() + "> is not allowed inside a film");
         if (have_filter) fail(src, src.line_of(c), "a second <rfilter>");
         have_filter = true;
         Plugin f = read_plugin(src, c);

@@ -248,7 +248,7 @@ void SceneBuilder::shape(const Source& src, pugi::xml_node n) {
         names.insert(names.end(), {"shapegroup", "instance"});
         fail(src, p.line, "unsupported shape type " + quote(p.type) + " (supported: " + name_list(names, ", ") + ")");
     }
-    ShapeArgs args{*this, p, bsdf, flip};
+    ShapeArgs args{*this, p, bsdf, flip, LightType::AreaMesh, 0, {}};
     plugin->build(args);
     finish(p, args.ignore);
     if (emitter_node) area_emitter(src, emitter_node, args.light_type, args.index);

@@ -291,7 +291,7 @@ void XmlReader::no_children(const Plugin& p) {
         fail(*p.src, p.src->line_of(c),
              "unsupported plugin " + quote(c.attribute("type").value()) + " (texture for parameter " +
                  quote(c.attribute("name").value()) + " of " + p.what() + "; iris textures BSDF parameters only)");
-    fail(*p.src, p.src->line_of(c), "<" + std::string(c.name()) + "> is not allowed inside " + p.what());
+    fail(*p.src, p.src->line_of(c), std::string("<") + c.name() + "> is not allowed inside " + p.what());
 }
 
 
