@@ -18,6 +18,7 @@
 
 #include <pugixml.hpp>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -36,7 +37,6 @@
 namespace iris::mitsuba {
 
 namespace fs = std::filesystem;
-
 
 // ------------------------------------------------------------------------------------------------
 // Fingerprint: two independent 64-bit hashes over a stream of length-prefixed byte strings (the
@@ -111,14 +111,16 @@ std::vector<std::string_view> tokens(std::string_view s);
 // Parameters and plugins.
 enum class Kind : uint8_t { Float, Integer, Boolean, String, Point, Vector, Rgb, Srgb, Spectrum, Transform };
 
+// A typed parameter of a plugin element (<float name="x" value="1"/>), read lazily by the getters.
 struct Prop {
     Kind kind;
     std::string name;
     pugi::xml_node node;
     int line = 0;
-    bool used = false;
+    bool used = false;  // queried by the plugin's builder (XmlReader::finish refuses the others)
 };
 
+// A plugin element (<bsdf type="diffuse" id="...">): its parameters and nested plugin elements.
 struct Plugin {
     const Source* src = nullptr;
     pugi::xml_node node;
