@@ -17,6 +17,7 @@ def plot(title, series, path, xlabel="total seconds (preprocessing included)", p
         return False
     import matplotlib
     matplotlib.use("Agg")  # files only, no display
+    matplotlib.rcParams["svg.hashsalt"] = "iris"  # fixed SVG ids: the same data gives the same file
     import matplotlib.pyplot as plt
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
     fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=100)
@@ -42,7 +43,7 @@ def plot(title, series, path, xlabel="total seconds (preprocessing included)", p
     ax.set_ylabel("relMSE")
     ax.set_title(title)
     ax.grid(True, which="both", color="#dddddd", linewidth=0.6)
-    ax.legend(loc="upper right", frameon=False, fontsize=8)
+    ax.legend(loc="upper right", frameon=False)
     fig.tight_layout()
     fig.savefig(path + ".png", metadata={"Software": None})
     fig.savefig(path + ".svg", metadata={"Date": None, "Creator": None})
