@@ -37,6 +37,8 @@ def main(argv=None):
     s.add_argument("--study", default="photon-paths=62500,125000,250000,500000;cache-count=1000,4000,16000;"
                    "gather-count=250,500,1000,2000;map-resolution=8,16,32;filter-sigma=0,0.75,1.5",
                    help="NAME=v1,v2,...;NAME2=... (preprocessing settings)")
+    s.add_argument("--prep-set", action="append", default=[], metavar="NAME=VALUE",
+                   help="a preprocessing setting under every study (repeatable)")
     s.add_argument("--out", default="out/bench/params")
     s.add_argument("-o", "--output", default=DOCS + "params-cbox_kugeln.md")
     studies.add_common(add("hybrid", studies.cmd_hybrid, "hybrid caches (learn=on) against photon-only caches, "
@@ -65,6 +67,7 @@ def main(argv=None):
     s.add_argument("--repeats", type=int, default=5)
     s.add_argument("--resolution", default="", help="WxH instead of the scaled film")
     s.add_argument("--only", default="")
+    s.add_argument("--prep-set", action="append", default=[], metavar="NAME=VALUE")
     s.add_argument("--out", default="out/bench/cost")
     s.add_argument("-o", "--output", default=DOCS + "cost.md")
     s = add("resolution", costs.cmd_resolution, "map resolution against noise per sample, equal spp")
@@ -75,6 +78,7 @@ def main(argv=None):
     s.add_argument("--ref-spp", type=int, default=2048)
     s.add_argument("--ref-dir", default=".cache/references")
     s.add_argument("--only", default="")
+    s.add_argument("--prep-set", action="append", default=[], metavar="NAME=VALUE")
     s.add_argument("--out", default="out/bench/resolution")
     s.add_argument("-o", "--output", default=DOCS + "resolution.md")
     s = add("throughput", costs.cmd_throughput, "render's rays per second against raw Embree (bench-rays)")

@@ -53,7 +53,7 @@ def cmd_cost(a):
     for name, scene in only(COST_SCENES, a):
         res = a.resolution or measure.scaled_resolution(scene, a.scale)
         out = os.path.join(a.out, name)
-        tools.preprocess(scene, out, ["min-caustic-share=0"], res)
+        tools.preprocess(scene, out, a.prep_set + ["min-caustic-share=0"], res)
         atlas = os.path.join(out, "atlas.h5")
         t, meta = {}, {}
         for rep in range(a.repeats):
@@ -117,7 +117,7 @@ def cmd_resolution(a):
                 atlas, settings, label = None, ["mode=nee+bsdf"], "unguided"
             else:
                 out = os.path.join(a.out, "%s-R%d" % (name, r))
-                tools.preprocess(scene, out, ["map-resolution=%d" % r, "min-caustic-share=0"], res)
+                tools.preprocess(scene, out, a.prep_set + ["map-resolution=%d" % r, "min-caustic-share=0"], res)
                 atlas, settings, label = os.path.join(out, "atlas.h5"), GUIDED + setting, " ".join(setting)
             e, m, t, work = [], [], [], 0.0
             for seed in (3, 4):
@@ -159,6 +159,7 @@ def cmd_throughput(a):
     """Paths/s and rays/s of the unguided path tracer (median of 3 runs; the render's own seconds and ray
     counter) beside bench-rays' closest-hit rate for incoherent rays on the same scene."""
     rows, loads = [], []
+    os.makedirs(a.out, exist_ok=True)
     for s in [x for x in THROUGHPUT_SCENES if not a.only or os.path.basename(x)[:-4] in a.only.split(",")]:
         scene = os.path.join("scenes/thesis", s)
         res = a.resolution or "%dx%d" % measure.film_size(scene)
@@ -183,6 +184,5 @@ def cmd_throughput(a):
                  "`bench-rays`, incoherent closest-hit rays from visible surface points in uniform random directions, "
                  "median of 3 runs. Load: %s." % (a.spp, measure.load_summary(loads)))
     lines += measure.md_table(["scene", "resolution", "Mpaths/s", "Mrays/s (render)", "Mrays/s (raw Embree)", "ratio"], rows)
-    os.makedirs(a.out, exist_ok=True)
     measure.write_text(a.output, "\n".join(lines) + "\n")
     print("wrote " + a.output)

@@ -60,6 +60,8 @@ def add_options(p, out, report, seeds):
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--only", default="", help="comma-separated scene names")
     p.add_argument("--resolution", default="", help="WxH for every scene instead of each one's (a smoke test)")
+    p.add_argument("--prep-set", action="append", default=[], metavar="NAME=VALUE",
+                   help="a preprocessing setting for every atlas (repeatable); default: the tools' defaults")
 
 
 def selected(scenes, a):
@@ -97,9 +99,9 @@ def render_job(scene, path, res, a, settings, atlas=None, spp=None, seconds=None
     return fn
 
 
-def atlas_for(scene, out, res, modes):
+def atlas_for(scene, out, res, modes, prep_set):
     if any(m != "nee+bsdf" for m, _ in modes):
-        tools.preprocess(scene, out, [], res)
+        tools.preprocess(scene, out, prep_set, res)
         return os.path.join(out, "atlas.h5")
     return None
 
@@ -119,7 +121,7 @@ def cmd_sampler(a):
         raise SystemExit("bench sampler: needs --seeds >= 2 and --spp >= 1")
     rows, loads = [], []
     for (name, scene, res, modes), out in selected(SAMPLER_SCENES, a):
-        atlas = atlas_for(scene, out, res, modes)
+        atlas = atlas_for(scene, out, res, modes, a.prep_set)
         jobs = []
         for mode, settings in modes:
             base = ["mode=nee+bsdf"] if mode == "nee+bsdf" else settings
@@ -160,7 +162,7 @@ def cmd_ab(a):
         raise SystemExit("bench ab: no render in --old-bin %s" % a.old_bin)
     rows, loads = [], []
     for (name, scene, res, modes), out in selected(AB_SCENES, a):
-        atlas = atlas_for(scene, out, res, modes)
+        atlas = atlas_for(scene, out, res, modes, a.prep_set)
         for mode, settings in modes:
             jobs = []
             for build, bin_dir, offset in (("A", a.old_bin, 0), ("B", tools.BIN, 1000)):
@@ -198,7 +200,7 @@ def cmd_choice(a):
     (label_a, set_a), (label_b, set_b) = choice["settings"]
     rows, loads = [], []
     for (name, scene, res, shared), out in selected(choice["scenes"], a):
-        atlas = atlas_for(scene, out, res, [("guided", [])])
+        atlas = atlas_for(scene, out, res, [("guided", [])], a.prep_set)
         jobs = [(label, render_job(scene, os.path.join(out, "%s-%d-%%d.exr" % (a.choice, i)), res, a,
                                    GUIDED + ["caustics=on"] + shared + settings, atlas=atlas, seconds=a.seconds))
                 for i, (label, settings) in enumerate(choice["settings"])]

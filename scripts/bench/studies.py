@@ -25,6 +25,8 @@ def add_common(p, out, report, resolution):
     p.add_argument("--plan", default="", help="budget:repeats,... instead of the study's (e.g. 2:1 for a smoke test)")
     p.add_argument("--ref-spp", type=int, default=2048, help="spp of the unguided reference")
     p.add_argument("--ref-seconds", type=float, default=0, help="seconds of the guided reference (default the study's)")
+    p.add_argument("--prep-set", action="append", default=[], metavar="NAME=VALUE",
+                   help="a preprocessing setting for every atlas (repeatable); default: the tools' defaults")
 
 
 def plan_of(a, default):
@@ -64,10 +66,12 @@ def cmd_hybrid(a):
     res = a.resolution
     # Two atlases: 25k photon paths (photons reach the near room badly) and 250k. min-caustic-share=0: the
     # door has no specular surface, so the default preprocessing would place no caches at all.
+    plan = plan_of(a, [(30, 3), (60, 2), (30, 3)])
+    keys = [25000, 25000, 250000][:len(plan)]
     preps = {}
-    for paths in (25000, 250000):
+    for paths in sorted(set(keys)):
         preps[paths] = tools.preprocess(scene, os.path.join(a.out, "p%d" % paths),
-                                        ["photon-paths=%d" % paths, "min-caustic-share=0"], res)[0]
+                                        a.prep_set + ["photon-paths=%d" % paths, "min-caustic-share=0"], res)[0]
 
     def configs_of(paths, ref):
         atlas = os.path.join(a.out, "p%d" % paths, "atlas.h5")
@@ -76,19 +80,17 @@ def cmd_hybrid(a):
                 ladder.iris_config("hybrid", scene, res, ref, atlas, preps[paths], EVERY + ["learn=on"])]
     seconds = a.ref_seconds or 300
     ref_guided = dict(slug="hybrid-%gs" % seconds, spec=references.guided_seconds(
-        seconds, prep=["photon-paths=25000", "min-caustic-share=0"], render=EVERY + ["learn=on"],
+        seconds, prep=a.prep_set + ["photon-paths=25000", "min-caustic-share=0"], render=EVERY + ["learn=on"],
         label="hybrid %gs (25k photon paths, every vertex, learn=on)" % seconds))
-    plan = plan_of(a, [(30, 3), (60, 2), (30, 3)])
-    keys = [25000, 25000, 250000][:len(plan)]
     sections = [("%dk photon paths" % (k // 1000), b, r, k) for (b, r), k in zip(plan, keys)]
     body = study(a, scene, configs_of, sections, ref_guided, "Hybrid, %g s" % seconds, "unguided, %d spp" % a.ref_spp)
     lines = ["# Hybrid caches on the room lit through a door (issue 25, part 1)", "",
              "`%s`, %s, nproc %d. `%s` at %s; every vertex guided (`%s`), photon-only caches against the same atlas "
              "with `learn=on` (hybrid) and the unguided tracer, interleaved, seeds 7 on, per setting the median "
              "render by relMSE x total seconds; guided totals include the preprocessing (min-caustic-share=0: "
-             "%.2f s with 25k photon paths, %.2f s with 250k). Efficiency = 1 / (relMSE x total seconds)."
+             "%s). Efficiency = 1 / (relMSE x total seconds)."
              % (command_line(), measure.today(), measure.nproc(), scene, res, " ".join(tools.sets(EVERY)),
-                preps[25000], preps[250000]), ""] + body
+                ", ".join("%.2f s with %dk photon paths" % (preps[k], k // 1000) for k in sorted(preps))), ""] + body
     measure.write_text(a.output, "\n".join(lines).rstrip() + "\n")
     print("wrote " + a.output)
 
@@ -96,7 +98,7 @@ def cmd_hybrid(a):
 def cmd_product(a):
     scene = "scenes/cbox/glossy_spheres.xml"
     res = a.resolution
-    prep = tools.preprocess(scene, a.out, [], res)[0]
+    prep = tools.preprocess(scene, a.out, a.prep_set, res)[0]
     atlas = os.path.join(a.out, "atlas.h5")
 
     def configs_of(_, ref):
@@ -107,7 +109,7 @@ def cmd_product(a):
                 ladder.iris_config("first+product", scene, res, ref, atlas, prep, FIRST + ["product=on"])]
     seconds = a.ref_seconds or 240
     ref_guided = dict(slug="every-%gs" % seconds, spec=references.guided_seconds(
-        seconds, render=EVERY + ["product=off"], label="guided %gs (every vertex, the map alone)" % seconds))
+        seconds, prep=a.prep_set, render=EVERY + ["product=off"], label="guided %gs (every vertex, the map alone)" % seconds))
     sections = [("Equal time", b, r, "t") for b, r in plan_of(a, [(30, 3), (60, 2)])]
     body = study(a, scene, configs_of, sections, ref_guided, "Guided (every vertex, the map alone), %g s" % seconds,
                  "unguided, %d spp" % a.ref_spp)
@@ -149,7 +151,7 @@ def cmd_params(a):
         rows = []
         for v in values:
             prep_dir = os.path.join(out, "%s-%s" % (var, v))
-            prep, _ = tools.preprocess(a.scene, prep_dir, ["%s=%s" % (var, v)], res)
+            prep, _ = tools.preprocess(a.scene, prep_dir, a.prep_set + ["%s=%s" % (var, v)], res)
             atlas = os.path.join(prep_dir, "atlas.h5")
             cfg = ladder.iris_config("%s=%s" % (var, v), a.scene, res, ref, atlas, prep, FIRST)
             x = ladder.cell_rows(ladder.equal_time([cfg], [a.budget], 1, prep_dir), [cfg["name"]], [a.budget])[0]
