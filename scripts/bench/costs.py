@@ -104,6 +104,7 @@ def cmd_resolution(a):
     setting the pilot picked there, two seeds; relMSE less the reference's own noise, trimmed relMSE, render
     seconds, and efficiency 1 / (relMSE x seconds) summed over the seeds, relative to unguided."""
     rows, loads = [], []
+    os.makedirs(a.out, exist_ok=True)
     for name, scene, setting, extra in only(RESOLUTION_CASES, a):
         res = a.resolution or measure.scaled_resolution(scene, 0.5)
         spp_ref = 4 * 2048 if name == "cbox_kugeln" else 2048
