@@ -53,7 +53,7 @@ def cmd_cost(a):
     for name, scene in only(COST_SCENES, a):
         res = a.resolution or measure.scaled_resolution(scene, a.scale)
         out = os.path.join(a.out, name)
-        tools.preprocess(scene, out, a.prep_set + ["min-caustic-share=0"], res)
+        tools.preprocess(scene, out, a.prep_set + ["min-caustic-share=0"])
         atlas = os.path.join(out, "atlas.h5")
         t, meta = {}, {}
         for rep in range(a.repeats):
@@ -118,7 +118,7 @@ def cmd_resolution(a):
                 atlas, settings, label = None, ["mode=nee+bsdf"], "unguided"
             else:
                 out = os.path.join(a.out, "%s-R%d" % (name, r))
-                tools.preprocess(scene, out, a.prep_set + ["map-resolution=%d" % r, "min-caustic-share=0"], res)
+                tools.preprocess(scene, out, a.prep_set + ["map-resolution=%d" % r, "min-caustic-share=0"])
                 atlas, settings, label = os.path.join(out, "atlas.h5"), GUIDED + setting, " ".join(setting)
             e, m, t, work = [], [], [], 0.0
             for seed in (3, 4):

@@ -112,7 +112,7 @@ def run_scene(a, name, scene, budgets, ref_seconds, out):
     os.makedirs(out, exist_ok=True)
     scene_json = os.path.join(out, "scene.json")
     tools.run(tools.export_scene_cmd(scene, scene_json, res))
-    prep, parts = tools.preprocess(scene, out, a.prep_set, res)
+    prep, parts = tools.preprocess(scene, out, a.prep_set)
     cal = cycles(scene_json, os.path.join(out, "cycles-calibration.exr"), spp=1)
     overhead = cal["wall"] - cal["sampling_seconds"]
     print("  cycles calibration (1 spp): %.1f s wall, %.1f s not sampling" % (cal["wall"], overhead), flush=True)

@@ -22,13 +22,14 @@ def unguided_seconds(seconds):
     return dict(kind="unguided %gs" % seconds, seconds=seconds, seed=1000003, settings=UNGUIDED)
 
 
-def guided_seconds(seconds, connect="off", prep=(), render=(), label=None):
+def guided_seconds(seconds, connect="off", prep=(), render=(), label=None, caches_at_size=False):
     """A guided reference. Without caustic connections unless CONNECT says otherwise, so that it does not
     rest on the newest estimator it may be judging; where the paths they join are most of the image (a room
     lit through glass) a reference without them stays too noisy, and connect=auto lets its pilot weigh
-    them. PREP: preprocessing settings of its own atlas; RENDER: settings instead of the default's."""
+    them. PREP: preprocessing settings of its own atlas; RENDER: settings instead of the default's;
+    CACHES_AT_SIZE: camera caches placed for the reference's size (else for the film's own)."""
     kind = label or ("guided %gs" % seconds + (", connections " + connect if connect != "off" else ""))
-    return dict(kind=kind, seconds=seconds, seed=1000005, prep=list(prep),
+    return dict(kind=kind, seconds=seconds, seed=1000005, prep=list(prep), caches_at_size=caches_at_size,
                 settings=(list(render) or ["connect=" + connect]) + ["sampler=independent"])
 
 
@@ -47,7 +48,8 @@ def ensure(scene, path, resolution, spec):
     atlas = None
     if "prep" in spec:
         prep_dir = os.path.splitext(path)[0] + ".prep"
-        tools.preprocess(scene, prep_dir, spec["prep"], resolution, seed=1000004)
+        tools.preprocess(scene, prep_dir, spec["prep"], resolution if spec.get("caches_at_size") else None,
+                         seed=1000004)
         atlas = os.path.join(prep_dir, "atlas.h5")
     print("reference %s: rendering (%s)" % (path, spec["kind"]), flush=True)
     cmd = tools.render_cmd(scene, path, atlas=atlas, spp=spec.get("spp"), seconds=spec.get("seconds"),

@@ -5,7 +5,7 @@ import os
 import sys
 import tempfile
 
-from . import costs, ladder, measure, plots, tier, tools
+from . import costs, ladder, measure, plots, references, tier, tools
 
 CHECKS = []
 
@@ -94,6 +94,31 @@ def manifests():
         expect(measure.read_manifest(p) == fields, "manifest round trip: %r" % measure.read_manifest(p))
         expect(not os.path.exists(p + ".tmp"), "no temporary left behind")
         expect(measure.read_manifest(os.path.join(d, "missing")) == {}, "a missing manifest reads as {}")
+
+
+@check
+def reference_up_to_date():
+    """A reference is kept only while its scene's fingerprint, its size and its kind match its manifest
+    (the fingerprint, which needs a render, is made up here)."""
+    real = tools.scene_fingerprint
+    tools.scene_fingerprint = lambda scene: {"a.xml": "f1", "b.xml": "f2"}[scene]
+    try:
+        with tempfile.TemporaryDirectory() as d:
+            ref = os.path.join(d, "r.exr")
+            expect(not references.up_to_date(ref, "a.xml", "32x32", "unguided 16 spp"), "no file: not up to date")
+            open(ref, "w").close()
+            measure.write_text(ref + ".manifest", measure.format_manifest(dict(
+                scene="a.xml", scene_fingerprint="f1", resolution="32x32", kind="unguided 16 spp")))
+            expect(references.up_to_date(ref, "a.xml", "32x32", "unguided 16 spp"), "all match: up to date")
+            expect(not references.up_to_date(ref, "b.xml", "32x32", "unguided 16 spp"), "scene content changed")
+            expect(not references.up_to_date(ref, "a.xml", "64x64", "unguided 16 spp"), "size changed")
+            expect(not references.up_to_date(ref, "a.xml", "32x32", "guided 300s"), "kind changed")
+    finally:
+        tools.scene_fingerprint = real
+    spec = references.guided_seconds(300, "auto")
+    expect(spec["kind"] == "guided 300s, connections auto" and "connect=auto" in spec["settings"]
+           and "sampler=independent" in spec["settings"], "guided reference spec %r" % spec)
+    expect(references.unguided_spp(2048)["kind"] == "unguided 2048 spp", "the kind the old manifests carry")
 
 
 @check

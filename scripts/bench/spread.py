@@ -100,6 +100,8 @@ def render_job(scene, path, res, a, settings, atlas=None, spp=None, seconds=None
 
 
 def atlas_for(scene, out, res, modes, prep_set):
+    """The scene's atlas (the tools' defaults) where a mode is guided; camera caches placed for RES (None:
+    for the film's own size)."""
     if any(m != "nee+bsdf" for m, _ in modes):
         tools.preprocess(scene, out, prep_set, res)
         return os.path.join(out, "atlas.h5")
@@ -121,7 +123,7 @@ def cmd_sampler(a):
         raise SystemExit("bench sampler: needs --seeds >= 2 and --spp >= 1")
     rows, loads = [], []
     for (name, scene, res, modes), out in selected(SAMPLER_SCENES, a):
-        atlas = atlas_for(scene, out, res, modes, a.prep_set)
+        atlas = atlas_for(scene, out, None, modes, a.prep_set)
         jobs = []
         for mode, settings in modes:
             base = ["mode=nee+bsdf"] if mode == "nee+bsdf" else settings

@@ -81,7 +81,7 @@ def cmd_hybrid(a):
     seconds = a.ref_seconds or 300
     ref_guided = dict(slug="hybrid-%gs" % seconds, spec=references.guided_seconds(
         seconds, prep=a.prep_set + ["photon-paths=25000", "min-caustic-share=0"], render=EVERY + ["learn=on"],
-        label="hybrid %gs (25k photon paths, every vertex, learn=on)" % seconds))
+        label="hybrid %gs (25k photon paths, every vertex, learn=on)" % seconds, caches_at_size=True))
     sections = [("%dk photon paths" % (k // 1000), b, r, k) for (b, r), k in zip(plan, keys)]
     body = study(a, scene, configs_of, sections, ref_guided, "Hybrid, %g s" % seconds, "unguided, %d spp" % a.ref_spp)
     lines = ["# Hybrid caches on the room lit through a door (issue 25, part 1)", "",
@@ -109,7 +109,8 @@ def cmd_product(a):
                 ladder.iris_config("first+product", scene, res, ref, atlas, prep, FIRST + ["product=on"])]
     seconds = a.ref_seconds or 240
     ref_guided = dict(slug="every-%gs" % seconds, spec=references.guided_seconds(
-        seconds, prep=a.prep_set, render=EVERY + ["product=off"], label="guided %gs (every vertex, the map alone)" % seconds))
+        seconds, prep=a.prep_set, render=EVERY + ["product=off"], label="guided %gs (every vertex, the map alone)" % seconds,
+        caches_at_size=True))
     sections = [("Equal time", b, r, "t") for b, r in plan_of(a, [(30, 3), (60, 2)])]
     body = study(a, scene, configs_of, sections, ref_guided, "Guided (every vertex, the map alone), %g s" % seconds,
                  "unguided, %d spp" % a.ref_spp)
@@ -151,7 +152,7 @@ def cmd_params(a):
         rows = []
         for v in values:
             prep_dir = os.path.join(out, "%s-%s" % (var, v))
-            prep, _ = tools.preprocess(a.scene, prep_dir, a.prep_set + ["%s=%s" % (var, v)], res)
+            prep, _ = tools.preprocess(a.scene, prep_dir, a.prep_set + ["%s=%s" % (var, v)])
             atlas = os.path.join(prep_dir, "atlas.h5")
             cfg = ladder.iris_config("%s=%s" % (var, v), a.scene, res, ref, atlas, prep, FIRST)
             x = ladder.cell_rows(ladder.equal_time([cfg], [a.budget], 1, prep_dir), [cfg["name"]], [a.budget])[0]

@@ -103,7 +103,7 @@ def run_scene(a, name, scene, scale, budgets, modes, out):
     prep, parts, atlas, auto_caches = 0.0, {}, None, None
     fixed = dict(atlas=None, prep=0.0)
     if guided:
-        prep, parts = tools.preprocess(scene, out, a.prep_set, res)
+        prep, parts = tools.preprocess(scene, out, a.prep_set)
         atlas = os.path.join(out, "atlas.h5")
         fixed = dict(atlas=atlas, prep=prep)
         auto_caches = tools.atlas_summary(atlas)[0]
@@ -111,7 +111,7 @@ def run_scene(a, name, scene, scale, budgets, modes, out):
         # through specular chains, min-caustic-share) they get a preprocessing of their own with caches forced.
         if any(m != "auto" for m in guided) and auto_caches == 0:
             forced = os.path.join(out, "forced")
-            p, _ = tools.preprocess(scene, forced, a.prep_set + ["min-caustic-share=0"], res)
+            p, _ = tools.preprocess(scene, forced, a.prep_set + ["min-caustic-share=0"])
             fixed = dict(atlas=os.path.join(forced, "atlas.h5"), prep=p)
     configs = []
     for m in modes:

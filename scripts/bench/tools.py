@@ -183,7 +183,9 @@ def split_stages(settings):
 
 def preprocess(scene, out, settings=(), resolution=None, seed=1, bin_dir=None):
     """The guided pipeline's preprocessing from scratch into OUT: (total seconds, {stage: seconds}), each the
-    wall time of the tool's whole command (as pipelines/guided.mk times them). Writes OUT/atlas.h5."""
+    wall time of the tool's whole command (as pipelines/guided.mk times them). Writes OUT/atlas.h5.
+    RESOLUTION: the image size place-caches places camera caches for; None: the film's own (what
+    pipelines/guided.mk does without RESOLUTION, and what the ladders measured, also at half size)."""
     os.makedirs(out, exist_ok=True)
     per = split_stages(settings)
     photons, caches, atlas = (os.path.join(out, n) for n in ("photons.h5", "caches.h5", "atlas.h5"))
