@@ -25,6 +25,7 @@
 #   make -f pipelines/bench.mk peers        # iris against Blender Cycles (~45 min); peers-glass (~20 min)
 #   make -f pipelines/bench.mk plots        # re-draw the committed ladder reports' plots (no renders)
 #   make -f pipelines/bench.mk selftest     # the harness's own rules, no tool run (seconds)
+#   make -f pipelines/bench.mk smoke        # every subcommand but peers at 24x24-32x32 and 1-3 s (~5 min; out/bench/smoke)
 #
 # The runs are timed: run them on an otherwise idle machine, one at a time (no -j).
 
@@ -52,7 +53,7 @@ LADDER_OPTS = --tier $(TIER) --report $(REPORT) --repeats $(REPEATS) --ref-dir $
   $(call opt,--scenes,$(SCENES)) $(foreach s,$(PREP_SET),--prep-set $(s))
 
 .PHONY: quick full ladder references report targets glazed params hybrid product sampler guide-depth \
-  connect-choice ab cost resolution throughput peers peers-glass peer-blender filter-profile plots selftest
+  connect-choice ab cost resolution throughput peers peers-glass peer-blender filter-profile plots selftest smoke
 
 quick:
 	@$(MAKE) -f pipelines/bench.mk TIER=quick ladder
@@ -156,3 +157,35 @@ plots:
 	$(BENCH) plots $(wildcard docs/benchmarks/full*.md docs/benchmarks/quick*.md)
 selftest:
 	$(BENCH) selftest
+
+# Every subcommand but peers (Blender) once with tiny images, budgets and preprocessing, against BIN's tools:
+# checks that the harness and the tools' command line fit together. Reports, references and renders all
+# go to out/bench/smoke (not docs/); the figures mean nothing.
+SMOKE := out/bench/smoke
+SMOKE_PREP := --prep-set photon-paths=2000 --prep-set cache-count=100 --prep-set gather-count=50
+smoke:
+	rm -rf $(SMOKE)
+	$(BENCH) selftest
+	$(BENCH) ladder --scenes box:scenes/thesis/cbox_nur_box.xml,spheres:scenes/thesis/cbox_kugeln.xml --scale 0.0625 \
+	  --budgets 1.5,3 --modes nee+bsdf,auto,nee+bsdf+cache --repeats 2 --ref-spp 16 --ref-dir $(SMOKE)/refs \
+	  --runs $(SMOKE)/runs --docs $(SMOKE)/docs --report ladder $(SMOKE_PREP)
+	$(BENCH) ladder --scenes spheres:scenes/thesis/cbox_kugeln.xml --scale 0.0625 --budgets 3 --modes nee+bsdf,auto \
+	  --ref-guided 1 --ref-spp 16 --ref-dir $(SMOKE)/refs --runs $(SMOKE)/runs --docs $(SMOKE)/docs --report guided-ref $(SMOKE_PREP)
+	$(BENCH) report --runs-dir $(SMOKE)/runs/ladder -o $(SMOKE)/docs/report.md --assets $(SMOKE)/docs/report
+	$(BENCH) hybrid --resolution 32x24 --plan 2:2 --ref-spp 16 --ref-seconds 1 --ref-dir $(SMOKE)/refs \
+	  --out $(SMOKE)/hybrid -o $(SMOKE)/docs/hybrid.md --prep-set cache-count=100 --prep-set gather-count=50
+	$(BENCH) product --resolution 32x32 --plan 2.5:1 --ref-spp 16 --ref-seconds 1 --ref-dir $(SMOKE)/refs \
+	  --out $(SMOKE)/product -o $(SMOKE)/docs/product.md $(SMOKE_PREP)
+	$(BENCH) params --scene scenes/thesis/cbox_nur_box.xml --name box --scale 0.0625 --budget 2 --ref-spp 16 \
+	  --ref-dir $(SMOKE)/refs --study 'map-resolution=8,16' --out $(SMOKE)/params -o $(SMOKE)/docs/params.md \
+	  --prep-set photon-paths=2000 --prep-set min-caustic-share=0
+	$(BENCH) sampler --resolution 24x24 --seeds 2 --spp 4 --only cbox_kugeln --out $(SMOKE)/sampler -o $(SMOKE)/docs/sampler.md $(SMOKE_PREP)
+	$(BENCH) ab --old-bin $(BIN) --what smoke --resolution 24x24 --seeds 2 --spp 4 --only cbox_kugeln \
+	  --out $(SMOKE)/ab -o $(SMOKE)/docs/ab.md $(SMOKE_PREP)
+	$(BENCH) guide-depth --resolution 24x24 --seeds 2 --seconds 1 --only cbox_kugeln --out $(SMOKE)/gd -o $(SMOKE)/docs/gd.md $(SMOKE_PREP)
+	$(BENCH) connect-choice --resolution 24x24 --seeds 2 --seconds 1 --only bidir --out $(SMOKE)/cc -o $(SMOKE)/docs/cc.md $(SMOKE_PREP)
+	$(BENCH) cost --resolution 24x24 --spp 2 --repeats 2 --only cbox_kugeln --out $(SMOKE)/cost -o $(SMOKE)/docs/cost.md $(SMOKE_PREP)
+	$(BENCH) resolution --resolution 24x24 --spp 2 --maps 4 --no-extra --only ring --ref-spp 16 --ref-dir $(SMOKE)/refs \
+	  --out $(SMOKE)/res -o $(SMOKE)/docs/resolution.md $(SMOKE_PREP)
+	$(BENCH) throughput --resolution 24x24 --spp 1 --rays 10000 --only cbox_nur_box --out $(SMOKE)/tp -o $(SMOKE)/docs/throughput.md
+	@echo "bench.mk: smoke: every subcommand ran; reports in $(SMOKE)/docs"
