@@ -105,6 +105,10 @@ def cmd_resolution(a):
     seconds, and efficiency 1 / (relMSE x seconds) summed over the seeds, relative to unguided."""
     rows, loads = [], []
     os.makedirs(a.out, exist_ok=True)
+    try:
+        common_maps = [int(r) for r in a.maps.split(",")]
+    except ValueError:
+        raise SystemExit("bench resolution: --maps takes comma-separated integers, got %r" % a.maps)
     for name, scene, setting, extra in only(RESOLUTION_CASES, a):
         res = a.resolution or measure.scaled_resolution(scene, 0.5)
         spp_ref = 4 * 2048 if name == "cbox_kugeln" else 2048
@@ -112,7 +116,7 @@ def cmd_resolution(a):
                                 else os.path.join(a.ref_dir, "%s-%s-unguided-%dspp.exr" % (name, res, a.ref_spp)),
                                 res, references.unguided_spp(spp_ref if not a.resolution else a.ref_spp))
         base = None
-        maps = [int(r) for r in a.maps.split(",")] + (extra if not a.no_extra else [])
+        maps = common_maps + (extra if not a.no_extra else [])
         for r in [None] + maps:
             if r is None:
                 atlas, settings, label = None, ["mode=nee+bsdf"], "unguided"

@@ -217,7 +217,7 @@ def tier_options():
     expect([n for n, _ in scenes] == ["ring", "mi"], "--only keeps the set's order: %r" % scenes)
     expect(raises(SystemExit, tier.settings_of, argparse.Namespace(**dict(vars(a), only="nope"))),
            "--only of an unknown scene is an error")
-    expect(raises(ValueError, tier.settings_of, argparse.Namespace(**dict(vars(a), modes="nee+bsdf,x"))),
+    expect(raises(SystemExit, tier.settings_of, argparse.Namespace(**dict(vars(a), modes="nee+bsdf,x"))),
            "an unknown mode is an error")
 
 

@@ -129,13 +129,13 @@ def cmd_params(a):
     """One preprocessing setting varied at a time from the defaults, fixed guiding (pilot=off, the first
     vertex, so that the pilot's choice does not hide the setting's effect) against nee+bsdf at one budget."""
     res = measure.scaled_resolution(a.scene, a.scale)
-    ref = references.ensure(a.scene, os.path.join(a.ref_dir, "%s-s%g-%dspp.exr" % (a.name, a.scale, a.ref_spp)), res,
-                            references.unguided_spp(a.ref_spp))
     studies = []
     for part in a.study.split(";"):
         var, _, values = part.partition("=")
         tools.split_stages(["%s=0" % var.strip()])  # an unknown setting fails before anything runs
         studies.append((var.strip(), [v.strip() for v in values.split(",") if v.strip()]))
+    ref = references.ensure(a.scene, os.path.join(a.ref_dir, "%s-s%g-%dspp.exr" % (a.name, a.scale, a.ref_spp)), res,
+                            references.unguided_spp(a.ref_spp))
     lines = ["## Parameter studies: `%s` at %g s (%s)" % (a.name, a.budget, res), "",
              "`%s`, %s, nproc %d. One preprocessing setting is varied at a time, the others at the tools' defaults; "
              "each guided render (`%s`) gets `--time` = %g s - its preprocessing and is compared with the unguided "

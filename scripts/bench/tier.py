@@ -53,7 +53,10 @@ def settings_of(a):
     budgets = [float(b) for b in (a.budgets or t["budgets"]).split(",")]
     modes = (a.modes or t["modes"]).split(",")
     for m in modes:
-        tools.mode_settings(m)  # an unknown mode fails before anything runs
+        try:
+            tools.mode_settings(m)  # an unknown mode fails before anything runs
+        except ValueError as e:
+            raise SystemExit("bench: " + str(e))
     if a.scenes:
         scenes = [tuple(s.split(":", 1)) for s in a.scenes.split(",")]
     else:
