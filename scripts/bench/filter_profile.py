@@ -5,12 +5,11 @@ the edge position is the row's lit area (a symmetric filter conserves it); each 
 centre's signed distance to that edge is the edge spread function, to which a Gaussian's (its CDF) is
 fitted. Prints the fitted standard deviation in pixels and the binned profile of each render.
 
-  /usr/bin/python3 scripts/filter_profile.py [--filter gaussian|box] [--spp 256] [--cycles-width W ...]
+  python3 -m scripts.bench filter-profile [--filter gaussian|box] [--spp 256] [--cycles-width W ...]
 
 Needs build/bin (IRIS_BIN) and blender (BLENDER). Exit 1 when iris's and Cycles' default-mapped fitted
-sigmas differ by more than 3 %.
+sigmas differ by more than 3 %. The commands come from the harness's tools module.
 """
-import argparse
 import math
 import os
 import subprocess
@@ -19,12 +18,8 @@ import tempfile
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import exr  # noqa: E402
-
-BIN = os.environ.get("IRIS_BIN", "build/bin")
-BLENDER = os.environ.get("BLENDER", "blender")
-HERE = os.path.dirname(os.path.abspath(__file__))
+from . import tools
+from .. import exr
 
 SCENE = """<?xml version="1.0" encoding="utf-8"?>
 <scene version="0.5.0">
@@ -73,37 +68,49 @@ def fit(a):
     return s, math.sqrt(err), prof
 
 
-def main():
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def add_options(p):
     p.add_argument("--filter", default="gaussian", choices=("gaussian", "box"))
     p.add_argument("--spp", type=int, default=256)
     p.add_argument("--cycles-width", type=float, action="append", default=[],
                    help="also render Cycles with this filter width (px), e.g. 6 = the old mapping")
-    a = p.parse_args()
+    p.add_argument("-o", "--output", default="", help="also write what it prints to this file")
+
+
+def profile(a):
+    """Prints (and returns) the fitted sigmas and profiles; the ratio Cycles / iris."""
+    lines = []
     with tempfile.TemporaryDirectory() as t:
         xml, js = os.path.join(t, "edge.xml"), os.path.join(t, "edge.json")
         with open(xml, "w") as f:
             f.write(SCENE % a.filter)
-        run([BIN + "/export-scene", xml, "-o", js])
+        run(tools.export_scene_cmd(xml, js))
         runs = [("iris", os.path.join(t, "iris.exr"))]
-        run([BIN + "/render", xml, "-o", runs[0][1], "--spp", str(a.spp), "-q"])
+        run(tools.render_cmd(xml, runs[0][1], spp=a.spp))
         for wdt in [None] + a.cycles_width:
             label = "cycles" if wdt is None else "cycles width %g" % wdt
             out = os.path.join(t, "cycles%s.exr" % ("" if wdt is None else "-%g" % wdt))
-            run([BLENDER, "-b", "--factory-startup", "-P", os.path.join(HERE, "cycles_render.py"), "--", js, out,
-                 "--spp", str(a.spp)] + ([] if wdt is None else ["--filter-width", "%g" % wdt]))
+            run(tools.cycles_cmd(js, out, spp=a.spp, filter_width=wdt))
             runs.append((label, out))
         sig = {}
-        print("filter %s, %d spp; profile = value at distances -2..2 px (step 0.5) from the edge" % (a.filter, a.spp))
+        lines.append("filter %s, %d spp; profile = value at distances -2..2 px (step 0.5) from the edge"
+                     % (a.filter, a.spp))
         for label, path in runs:
             s, rms, prof = fit(exr.rgb(path))
             sig[label] = s
-            print("  %-16s fitted sigma %.3f px (rms residual %.4f)  profile %s"
-                  % (label, s, rms, " ".join("%.3f" % x for x in prof)))
-    rel = abs(sig["cycles"] / sig["iris"] - 1)
-    print("  Cycles / iris fitted sigma: %.3f" % (sig["cycles"] / sig["iris"]))
-    sys.exit(1 if rel > 0.03 else 0)
+            lines.append("  %-16s fitted sigma %.3f px (rms residual %.4f)  profile %s"
+                         % (label, s, rms, " ".join("%.3f" % x for x in prof)))
+    lines.append("  Cycles / iris fitted sigma: %.3f" % (sig["cycles"] / sig["iris"]))
+    print("\n".join(lines))
+    return sig["cycles"] / sig["iris"], "\n".join(lines)
 
 
-if __name__ == "__main__":
-    main()
+def cmd_filter_profile(a):
+    r, text = profile(a)
+    if a.output:
+        tools_write(a.output, text + "\n")
+    sys.exit(1 if abs(r - 1) > 0.03 else 0)
+
+
+def tools_write(path, text):
+    from .measure import write_text
+    write_text(path, text)
