@@ -41,7 +41,7 @@
 #include "support/run_tool.h"
 #include "tools/fill-caches/cache_filler.h"
 #include "tools/place-caches/cache_placer.h"
-#include "tools/render/guide.h"
+#include "libguide/guide.h"
 #include "tools/render/integrator.h"
 #include "tools/trace-photons/photon_tracer.h"
 

@@ -10,7 +10,7 @@
 
 #include "formats/exr.h"
 #include "libcommon/scene.h"
-#include "tools/render/guide.h"
+#include "libguide/guide.h"
 
 namespace iris {
 
