@@ -6,7 +6,7 @@
 
 #include "libcommon/film.h"
 #include "libcommon/tool_util.h"
-#include "tools/render/film_parts.h"
+#include "formats/film_parts.h"
 
 namespace iris {
 

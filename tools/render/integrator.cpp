@@ -18,7 +18,7 @@
 #include "libcommon/sampling.h"
 #include "tools/render/caustics.h"
 #include "tools/render/connections.h"
-#include "tools/render/film_parts.h"
+#include "formats/film_parts.h"
 
 namespace iris {
 
