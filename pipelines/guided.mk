@@ -4,9 +4,16 @@
 #   make -f pipelines/guided.mk SCENE=scenes/cbox/glass_spheres.xml OUT=out/glass_spheres [targets]
 #
 # Targets: photons caches atlas guided (default) unguided reference compare clean
-# Every parameter below can be overridden on the command line (make ... K=500 TIME=120).
+# The stages run with the tools' own defaults (the recommended settings: `TOOL --list-settings`); change
+# one with the tool's setting name, per stage, e.g.
+#   make -f pipelines/guided.mk ... PHOTONS_SET='photon-count=1000000' ATLAS_SET='gather-count=500'
+#   PHOTONS_SET  trace-photons   CACHES_SET  place-caches   ATLAS_SET  fill-caches
+#   RENDER_SET   both renders    GUIDED_SET  the guided render only (e.g. 'pilot=off mode=nee+bsdf+cache')
+# (min-caustic-share is read by trace-photons and place-caches: give it in PHOTONS_SET and CACHES_SET.)
+# Each is a space-separated list of name=value, passed as --set name=value. Running the stages one by
+# one with the same settings makes the same files.
 # Each stage's full command line is kept in $(OUT)/<stage>.params; a stage re-runs when its command
-# (i.e. a parameter) or an input changed, and so do the stages after it - nothing else re-runs.
+# (i.e. a setting) or an input changed, and so do the stages after it - nothing else re-runs.
 #
 # Equal time: the guided render gets TIME seconds; the unguided one gets TIME plus the measured
 # preprocessing time (trace-photons + place-caches + fill-caches, in $(OUT)/*.seconds), so both
@@ -25,45 +32,15 @@ QUIET ?= -q
 # The image size WxH (empty: the scene's film). place-caches puts its camera caches on this image's
 # pixel blocks, and every render (guided, unguided, the reference) is made at it.
 RESOLUTION ?=
-
-# trace-photons: as many paths as store about PHOTONS photons (trace-photons --photons), or exactly PATHS
-# paths where PATHS is given. Photons per path range from 0.3 (the metal ring: an open scene) to 3.4 (the
-# Veach bidir room), and the caches need photons near them: at 250000 paths the ring's caches were built
-# from 83k photons, and 500k (1.5M paths, +1 s) left 20 % less variance per sample (DESIGN 6.9); the
-# closed boxes store about 500k at 250000 paths already.
-PHOTONS ?= 500000
-PATHS ?=
-PHOTON_DEPTH ?= 30
-# place-caches
-COUNT ?= 4000
-STRIDE ?= 8
-# No caches at all (an unguided render) when less than this share of the photon power arrives through
-# specular chains: on the seed scenes without any (the plain box, the plates) guiding did not pay for
-# its preprocessing. 0 = always guide. Where no surface has a specular lobe (the plain box) the share is
-# 0 without tracing, and trace-photons traces nothing.
-MIN_CAUSTIC ?= 0.005
-# fill-caches
-K ?= 1000
-# 32x32 maps (texels ~6 degrees): at equal spp, guiding every vertex with them left 35-45 % less error
-# than 16x16 on the glass spheres and the mirror boxes (first vertex: 24-29 % less on the ring and the
-# egg), for 5-10 % more time per sample; 24 and 64 were less efficient on the spheres (BENCHMARKS.md).
-RES ?= 32
-SIGMA ?= 0.75
-FLOOR ?= 0.1
-MAX_RADIUS ?= 0.05
-# render
+# The render budget: TIME seconds, or SPP samples per pixel where SPP is not 0.
 TIME ?= 30
 SPP ?= 0
-MODE ?= auto
-BSDF_FRACTION ?= auto
-# Light tracing of the caustics seen directly (render --caustics): auto (MODE=auto's default: where they
-# are at least 0.1 % of the image or the pilot predicts a gain) | on | off.
-CAUSTICS ?= $(if $(filter auto,$(MODE)),auto,off)
-# Extra render flags: RENDER_FLAGS for both renders, GUIDE_FLAGS for the guided one only (e.g. hybrid
-# caches where photons reach the visible part badly, with a fixed guided mode:
-#   MODE=nee+bsdf+cache GUIDE_FLAGS='--learn --guide-vertices 0 --rr-threshold 0.1'; docs/benchmarks/hybrid.md).
-RENDER_FLAGS ?=
-GUIDE_FLAGS ?=
+# The stages' settings (empty: the tools' defaults).
+PHOTONS_SET ?=
+CACHES_SET ?=
+ATLAS_SET ?=
+RENDER_SET ?=
+GUIDED_SET ?=
 # reference (unguided, long), kept outside the output folder so several runs share it
 REF_SPP ?= 1024
 REF_DIR ?= .cache/references
@@ -76,19 +53,19 @@ COMMON := --seed $(SEED) -t $(THREADS) $(QUIET)
 NOWARN := --no-scene-warnings
 BUDGET := $(if $(filter 0,$(SPP)),--time $(TIME),--spp $(SPP))
 SIZE := $(if $(RESOLUTION),--resolution $(RESOLUTION))
+# name=value ... -> --set name=value ...
+sets = $(foreach a,$(1),--set $(a))
 
-CMD_photons = $(BIN)/trace-photons $(SCENE) -o $(OUT)/photons.h5 $(if $(PATHS),--paths $(PATHS),--photons $(PHOTONS)) --max-depth $(PHOTON_DEPTH) \
-  --min-caustic-share $(MIN_CAUSTIC) $(COMMON)
-CMD_caches = $(BIN)/place-caches $(SCENE) --photons $(OUT)/photons.h5 -o $(OUT)/caches.h5 --count $(COUNT) \
-  --camera-stride $(STRIDE) --min-caustic-share $(MIN_CAUSTIC) $(SIZE) $(NOWARN) $(COMMON)
-CMD_atlas = $(BIN)/fill-caches $(OUT)/caches.h5 --photons $(OUT)/photons.h5 -o $(OUT)/atlas.h5 --k $(K) \
-  --resolution $(RES) --filter-sigma $(SIGMA) --floor $(FLOOR) --max-radius $(MAX_RADIUS) \
-  $(if $(filter bsdf+cache,$(MODE)),--direct) $(COMMON)
-CMD_guided = $(BIN)/render $(SCENE) --atlas $(OUT)/atlas.h5 --mode $(MODE) --bsdf-fraction $(BSDF_FRACTION) --caustics $(CAUSTICS) \
-  -o $(OUT)/guided.exr $(BUDGET) --variance $(SIZE) $(RENDER_FLAGS) $(GUIDE_FLAGS) $(NOWARN) $(COMMON)
+CMD_photons = $(BIN)/trace-photons $(SCENE) -o $(OUT)/photons.h5 $(call sets,$(PHOTONS_SET)) $(COMMON)
+CMD_caches = $(BIN)/place-caches $(SCENE) --photon-map $(OUT)/photons.h5 -o $(OUT)/caches.h5 $(call sets,$(CACHES_SET)) \
+  $(SIZE) $(NOWARN) $(COMMON)
+CMD_atlas = $(BIN)/fill-caches $(OUT)/caches.h5 --photon-map $(OUT)/photons.h5 -o $(OUT)/atlas.h5 $(call sets,$(ATLAS_SET)) $(COMMON)
+CMD_guided = $(BIN)/render $(SCENE) --atlas $(OUT)/atlas.h5 -o $(OUT)/guided.exr $(BUDGET) --variance $(SIZE) \
+  $(call sets,$(RENDER_SET) $(GUIDED_SET)) $(NOWARN) $(COMMON)
 # The unguided budget is completed at run time with the measured preprocessing seconds.
-CMD_unguided = $(BIN)/render $(SCENE) -o $(OUT)/unguided.exr --mode nee+bsdf --variance $(SIZE) $(RENDER_FLAGS) $(NOWARN) $(COMMON)
-CMD_reference = $(BIN)/render $(SCENE) -o $(REF) --mode nee+bsdf --spp $(REF_SPP) --seed 1000003 $(SIZE) -t $(THREADS) $(NOWARN) $(QUIET)
+CMD_unguided = $(BIN)/render $(SCENE) -o $(OUT)/unguided.exr --set mode=nee+bsdf --variance $(SIZE) $(call sets,$(RENDER_SET)) \
+  $(NOWARN) $(COMMON)
+CMD_reference = $(BIN)/render $(SCENE) -o $(REF) --set mode=nee+bsdf --spp $(REF_SPP) --seed 1000003 $(SIZE) -t $(THREADS) $(NOWARN) $(QUIET)
 
 # Runs a command and records its wall time (seconds) in $(1).
 timed = start=$$(date +%s.%N); $(2); end=$$(date +%s.%N); awk -v a=$$start -v b=$$end 'BEGIN{printf "%.3f\n", b-a}' > $(1)
@@ -111,19 +88,19 @@ $(OUT)/%.params: FORCE | $(OUT)
 	@printf '%s\n' '$(strip $(CMD_$*))' | cmp -s - $@ || printf '%s\n' '$(strip $(CMD_$*))' > $@
 
 $(OUT)/photons.h5: $(OUT)/photons.params $(SCENE)
-	@echo "[1/4] trace-photons: $(if $(PATHS),$(PATHS) paths,about $(PHOTONS) photons)"
+	@echo "[1/4] trace-photons $(PHOTONS_SET)"
 	@$(call timed,$(OUT)/photons.seconds,$(CMD_photons))
 
 $(OUT)/caches.h5: $(OUT)/caches.params $(OUT)/photons.h5
-	@echo "[2/4] place-caches: $(COUNT) caches"
+	@echo "[2/4] place-caches $(CACHES_SET)"
 	@$(call timed,$(OUT)/caches.seconds,$(CMD_caches))
 
 $(OUT)/atlas.h5: $(OUT)/atlas.params $(OUT)/caches.h5 $(OUT)/photons.h5
-	@echo "[3/4] fill-caches: k = $(K), $(RES)x$(RES) maps"
+	@echo "[3/4] fill-caches $(ATLAS_SET)"
 	@$(call timed,$(OUT)/atlas.seconds,$(CMD_atlas))
 
 $(OUT)/guided.exr: $(OUT)/guided.params $(OUT)/atlas.h5 $(SCENE)
-	@echo "[4/4] render (guided, $(MODE)): $(BUDGET)"
+	@echo "[4/4] render (guided$(if $(strip $(RENDER_SET) $(GUIDED_SET)),: $(strip $(RENDER_SET) $(GUIDED_SET)))): $(BUDGET)"
 	@$(CMD_guided)
 
 # Depends on the atlas too: when preprocessing re-ran, its time changed and so did this budget.
@@ -144,7 +121,7 @@ $(OUT)/comparison.txt: $(OUT)/guided.exr $(OUT)/unguided.exr $(REF)
 	@{ echo "scene: $(SCENE)"; \
 	   echo "reference: $(REF) ($(REF_SPP) spp, unguided)"; \
 	   echo "preprocessing: $$(cat $(OUT)/photons.seconds) s photons + $$(cat $(OUT)/caches.seconds) s caches + $$(cat $(OUT)/atlas.seconds) s atlas"; \
-	   echo; echo "== guided ($(MODE)), $(TIME) s render + preprocessing =="; \
+	   echo; echo "== guided$(if $(strip $(RENDER_SET) $(GUIDED_SET)), ($(strip $(RENDER_SET) $(GUIDED_SET)))), $(TIME) s render + preprocessing =="; \
 	   $(BIN)/compare-images $(OUT)/guided.exr --metadata | sed -n 's/^iris:auto_guide /auto: /p'; \
 	   $(BIN)/compare-images $(OUT)/guided.exr $(REF) -o $(OUT)/guided.error.png --error-scale 0.05; \
 	   echo; echo "== unguided (nee+bsdf), same total time =="; \

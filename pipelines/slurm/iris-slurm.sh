@@ -6,14 +6,15 @@
 #
 #   pipelines/slurm/iris-slurm.sh SCENE=scenes/cbox/glass_spheres.xml OUT=/shared/out/spheres SPP=256 TASKS=8
 #
-# Parameters (KEY=VALUE arguments or environment), as in pipelines/guided.mk where they exist:
-#   SCENE OUT BIN SEED PATHS PHOTON_DEPTH MIN_CAUSTIC COUNT STRIDE K RES SIGMA FLOOR MAX_RADIUS BSDF_FRACTION
+# Parameters (KEY=VALUE arguments or environment), as in pipelines/guided.mk:
+#   SCENE OUT BIN SEED RESOLUTION, and the stages' settings (space-separated name=value lists, passed as
+#   --set; `TOOL --list-settings` shows them): PHOTONS_SET CACHES_SET ATLAS_SET RENDER_SET GUIDED_SET
+#   PHOTONS_SET must fix photon-paths (the path ranges split it)           default 'photon-paths=250000'
 #   SPP      samples per pixel in all (a split render has a fixed spp: no TIME)      default 64
-#   MODE     a fixed mode (auto's pilot is measured per process and is refused)      default nee+bsdf+cache
-#   CAUSTICS on | off (auto is refused for the same reason)                          default off
+#   The render runs with pilot=off (a pilot is measured per process, so the parts would differ): mode
+#   nee+bsdf+cache unless RENDER_SET/GUIDED_SET set another, caustics and connections off unless set on.
 #   TASKS, PHOTON_TASKS   tasks of the render and photon arrays                      default 4, 2
 #   CPUS     CPUs per task (and -t of each tool)                                     default 1
-#   RENDER_FLAGS          more render flags (e.g. --resolution 640x480 --max-depth 8)
 #   RETRIES  times a task's tool is re-run by the task itself after it failed or was killed  default 1
 #   SBATCH_FLAGS          extra sbatch flags for every job (partition, account, time limit, ...)
 #   WAIT=1   block until every job has left the queue; exit status 0 if OUT/guided.exr was written
@@ -58,24 +59,27 @@ if [[ "${1:-}" == task ]]; then
     done
   }
   common=(--seed "$SEED" -t "$CPUS" -q)
+  sets() { for a in "$@"; do printf -- '--set\n%s\n' "$a"; done; }  # name=value ... -> --set name=value ...
+  size=(); [[ -n $RESOLUTION ]] && size=(--resolution "$RESOLUTION")
+  # shellcheck disable=SC2086  # the *_SET variables are lists of name=value
+  { mapfile -t photons_set < <(sets $PHOTONS_SET); mapfile -t caches_set < <(sets $CACHES_SET)
+    mapfile -t atlas_set < <(sets $ATLAS_SET); mapfile -t render_set < <(sets pilot=off $RENDER_SET $GUIDED_SET); }
   case $stage in
     photons)
-      run "$BIN/trace-photons" "$SCENE" -o "$OUT/parts/photons-$id.h5" --paths "$PATHS" --max-depth "$PHOTON_DEPTH" \
-        --min-caustic-share "$MIN_CAUSTIC" --path-range "$(range "$PHOTON_TASKS" "$PATHS")" "${common[@]}" ;;
+      run "$BIN/trace-photons" "$SCENE" -o "$OUT/parts/photons-$id.h5" "${photons_set[@]}" \
+        --path-range "$(range "$PHOTON_TASKS" "$PATHS")" "${common[@]}" ;;
     merge-photons)
       parts=(); for ((i = 0; i < PHOTON_TASKS; ++i)); do parts+=("$OUT/parts/photons-$i.h5"); done
       run "$BIN/merge-photons" "${parts[@]}" -o "$OUT/photons.h5" -q ;;
     caches)
-      run "$BIN/place-caches" "$SCENE" --photons "$OUT/photons.h5" -o "$OUT/caches.h5" --count "$COUNT" \
-        --camera-stride "$STRIDE" --min-caustic-share "$MIN_CAUSTIC" "${common[@]}" ;;
+      run "$BIN/place-caches" "$SCENE" --photon-map "$OUT/photons.h5" -o "$OUT/caches.h5" "${caches_set[@]}" \
+        "${size[@]}" --no-scene-warnings "${common[@]}" ;;
     atlas)
-      direct=(); [[ $MODE == bsdf+cache ]] && direct=(--direct)
-      run "$BIN/fill-caches" "$OUT/caches.h5" --photons "$OUT/photons.h5" -o "$OUT/atlas.h5" --k "$K" --resolution "$RES" \
-        --filter-sigma "$SIGMA" --floor "$FLOOR" --max-radius "$MAX_RADIUS" "${direct[@]}" "${common[@]}" ;;
+      run "$BIN/fill-caches" "$OUT/caches.h5" --photon-map "$OUT/photons.h5" -o "$OUT/atlas.h5" "${atlas_set[@]}" \
+        "${common[@]}" ;;
     render)
-      # shellcheck disable=SC2086  # RENDER_FLAGS is a list of flags
-      run "$BIN/render" "$SCENE" --atlas "$OUT/atlas.h5" --mode "$MODE" --bsdf-fraction "$BSDF_FRACTION" \
-        --caustics "$CAUSTICS" --spp "$SPP" --sample-range "$(range "$TASKS" "$SPP")" --variance $RENDER_FLAGS \
+      run "$BIN/render" "$SCENE" --atlas "$OUT/atlas.h5" "${render_set[@]}" --spp "$SPP" \
+        --sample-range "$(range "$TASKS" "$SPP")" --variance "${size[@]}" --no-scene-warnings \
         -o "$OUT/parts/render-$id.exr" "${common[@]}" ;;
     merge-images)
       parts=(); for ((i = 0; i < TASKS; ++i)); do parts+=("$OUT/parts/render-$i.exr"); done
@@ -93,17 +97,18 @@ root=$(cd "$here/../.." && pwd)
 export SCENE=${SCENE:-$root/scenes/cbox/glass_spheres.xml}
 export OUT=${OUT:-$root/out/slurm/$(basename "${SCENE%.*}")}
 export BIN=${BIN:-$root/build/bin} SEED=${SEED:-1}
-export PATHS=${PATHS:-250000} PHOTON_DEPTH=${PHOTON_DEPTH:-30} MIN_CAUSTIC=${MIN_CAUSTIC:-0.005}
-export COUNT=${COUNT:-4000} STRIDE=${STRIDE:-8} K=${K:-1000} RES=${RES:-32} SIGMA=${SIGMA:-0.75} FLOOR=${FLOOR:-0.1}
-export MAX_RADIUS=${MAX_RADIUS:-0.05} BSDF_FRACTION=${BSDF_FRACTION:-auto}
-export SPP=${SPP:-64} MODE=${MODE:-nee+bsdf+cache} CAUSTICS=${CAUSTICS:-off}
+export RESOLUTION=${RESOLUTION:-} PHOTONS_SET=${PHOTONS_SET:-photon-paths=250000}
+export CACHES_SET=${CACHES_SET:-} ATLAS_SET=${ATLAS_SET:-} RENDER_SET=${RENDER_SET:-} GUIDED_SET=${GUIDED_SET:-}
+export SPP=${SPP:-64}
 export TASKS=${TASKS:-4} PHOTON_TASKS=${PHOTON_TASKS:-2} CPUS=${CPUS:-1} RETRIES=${RETRIES:-1}
-export RENDER_FLAGS=${RENDER_FLAGS:-}
+# The photon path count the ranges split (the last photon-paths= of PHOTONS_SET).
+PATHS=$(tr ' ' '\n' <<<"$PHOTONS_SET" | sed -n 's/^photon-paths=//p' | tail -1)
+export PATHS
 SBATCH_FLAGS=${SBATCH_FLAGS:-}
 WAIT=${WAIT:-0}
 err() { echo "iris-slurm: error: $*" >&2; exit 2; }
-[[ $MODE == auto ]] && err "MODE=auto cannot be split into sample ranges (its pilot is measured per process); give a fixed mode"
-[[ $CAUSTICS == auto ]] && err "CAUSTICS=auto cannot be split into sample ranges; give on or off"
+[[ -n $PATHS ]] || err "PHOTONS_SET must set photon-paths (the photon path ranges split it), got '$PHOTONS_SET'"
+[[ " $RENDER_SET $GUIDED_SET " == *" pilot=on "* ]] && err "pilot=on cannot be split into sample ranges (the pilot is measured per process)"
 for v in SPP TASKS PHOTON_TASKS CPUS PATHS; do [[ ${!v} =~ ^[1-9][0-9]*$ ]] || err "$v must be a positive integer, got '${!v}'"; done
 (( TASKS <= SPP )) || err "TASKS ($TASKS) must not exceed SPP ($SPP)"
 (( PHOTON_TASKS <= PATHS )) || err "PHOTON_TASKS ($PHOTON_TASKS) must not exceed PATHS ($PATHS)"

@@ -7,8 +7,8 @@
 # What it runs (arguments from stages.args, from the repository root, so that the provenance in the
 # files records relative paths):
 #   trace-photons SCENE                                     -> photons.h5
-#   place-caches  SCENE --photons photons.h5                -> caches.h5
-#   fill-caches   caches.h5 --photons photons.h5            -> atlas.h5
+#   place-caches  SCENE --photon-map photons.h5             -> caches.h5
+#   fill-caches   caches.h5 --photon-map photons.h5         -> atlas.h5
 #   render        SCENE --atlas atlas.h5 --variance         -> render.exr
 #
 # When to run it: after a deliberate change to a stage's results -- its algorithm, its random number
@@ -49,8 +49,8 @@ read -ra place_args <<<"$(args place-caches)"
 read -ra fill_args <<<"$(args fill-caches)"
 read -ra render_args <<<"$(args render)"
 "$bin/trace-photons" "$scene" -q "${trace_args[@]}" -o "$rel/photons.h5"
-"$bin/place-caches" "$scene" -q --photons "$rel/photons.h5" "${place_args[@]}" -o "$rel/caches.h5"
-"$bin/fill-caches" "$rel/caches.h5" -q --photons "$rel/photons.h5" "${fill_args[@]}" -o "$rel/atlas.h5"
+"$bin/place-caches" "$scene" -q --photon-map "$rel/photons.h5" "${place_args[@]}" -o "$rel/caches.h5"
+"$bin/fill-caches" "$rel/caches.h5" -q --photon-map "$rel/photons.h5" "${fill_args[@]}" -o "$rel/atlas.h5"
 "$bin/render" "$scene" -q --atlas "$rel/atlas.h5" "${render_args[@]}" -o "$rel/render.exr"
 trap - ERR
 rm -rf "$backup"

@@ -123,16 +123,16 @@ protected:
         };
         const std::string caustic = data_file("guiding/caustic_box.xml"), furnace = data_file("render/furnace_box.xml");
         const std::string q = " -q --seed 3";
-        run(tool("trace-photons") + " " + caustic + " -o " + in("photons.h5") + " --paths 2000" + q);
-        run(tool("place-caches") + " " + caustic + " --photons " + in("photons.h5") + " -o " + in("caches.h5") +
-            " --count 40" + q);
-        run(tool("fill-caches") + " " + in("caches.h5") + " --photons " + in("photons.h5") + " -o " + in("atlas.h5") +
-            " --k 50 --resolution 4" + q);
-        run(tool("trace-photons") + " " + furnace + " -o " + in("furnace_photons.h5") + " --paths 500" + q);
-        run(tool("place-caches") + " " + furnace + " --photons " + in("furnace_photons.h5") + " -o " +
-            in("furnace_caches.h5") + " --count 10" + q);
-        run(tool("fill-caches") + " " + in("furnace_caches.h5") + " --photons " + in("furnace_photons.h5") + " -o " +
-            in("furnace_atlas.h5") + " --k 20 --resolution 4" + q);
+        run(tool("trace-photons") + " " + caustic + " -o " + in("photons.h5") + " --set photon-paths=2000" + q);
+        run(tool("place-caches") + " " + caustic + " --photon-map " + in("photons.h5") + " -o " + in("caches.h5") +
+            " --set cache-count=40" + q);
+        run(tool("fill-caches") + " " + in("caches.h5") + " --photon-map " + in("photons.h5") + " -o " + in("atlas.h5") +
+            " --set gather-count=50 --set map-resolution=4" + q);
+        run(tool("trace-photons") + " " + furnace + " -o " + in("furnace_photons.h5") + " --set photon-paths=500" + q);
+        run(tool("place-caches") + " " + furnace + " --photon-map " + in("furnace_photons.h5") + " -o " +
+            in("furnace_caches.h5") + " --set cache-count=10" + q);
+        run(tool("fill-caches") + " " + in("furnace_caches.h5") + " --photon-map " + in("furnace_photons.h5") + " -o " +
+            in("furnace_atlas.h5") + " --set gather-count=20 --set map-resolution=4" + q);
         run(tool("render") + " " + furnace + " -o " + in("image.exr") + " --spp 4" + q);
         run(tool("render") + " " + furnace + " -o " + in("small.exr") + " --spp 4 --resolution 8x8" + q);
         // Parts of a render (render --sample-range) and of a photon map (trace-photons --path-range).
@@ -140,14 +140,14 @@ protected:
         run(part + " --sample-range 0:2 -o " + in("part_a.exr"));
         run(part + " --sample-range 2:4 -o " + in("part_b.exr"));
         run(part + " --sample-range 1:3 -o " + in("part_overlap.exr"));
-        run(part + " --sample-range 2:4 --max-depth 3 -o " + in("part_depth.exr"));
+        run(part + " --sample-range 2:4 --set max-depth=3 -o " + in("part_depth.exr"));
         run(tool("render") + " " + caustic + " --spp 4 --resolution 8x8 --sample-range 2:4 -o " + in("part_other_scene.exr") + q);
-        const std::string ppart = tool("trace-photons") + " " + caustic + " --paths 2000" + q;
+        const std::string ppart = tool("trace-photons") + " " + caustic + " --set photon-paths=2000" + q;
         run(ppart + " --path-range 0:1000 -o " + in("photons_a.h5"));
         run(ppart + " --path-range 1000:2000 -o " + in("photons_b.h5"));
         run(ppart + " --path-range 500:1500 -o " + in("photons_overlap.h5"));
-        run(ppart + " --path-range 1000:2000 --max-depth 3 -o " + in("photons_depth.h5"));
-        run(tool("trace-photons") + " " + furnace + " --paths 2000 --path-range 1000:2000 -o " + in("photons_other_scene.h5") + q);
+        run(ppart + " --path-range 1000:2000 --set photon-depth=3 -o " + in("photons_depth.h5"));
+        run(tool("trace-photons") + " " + furnace + " --set photon-paths=2000 --path-range 1000:2000 -o " + in("photons_other_scene.h5") + q);
 
         // Files that are not what they claim to be.
         write_text(in("text.h5"), "not an HDF5 file\n");
@@ -349,7 +349,7 @@ const BadInputCase kCases[] = {
     {"SerializedCorrupt", "render", "serialized mesh with scrambled zlib data", "{in}/corrupt_serialized.xml -o {out}", "corrupt.serialized"},
     {"SerializedBadShapeIndex", "render", "shapeIndex 2 in a one-shape serialized file", "{in}/shape_index.xml -o {out}", "shapeIndex"},
     {"TracePhotonsSceneMissing", "trace-photons", "scene file does not exist", "{in}/missing.xml -o {out}", "missing.xml"},
-    {"PlaceCachesSceneMalformed", "place-caches", "malformed scene", "{in}/malformed.xml --photons {in}/photons.h5 -o {out}", "malformed.xml"},
+    {"PlaceCachesSceneMalformed", "place-caches", "malformed scene", "{in}/malformed.xml --photon-map {in}/photons.h5 -o {out}", "malformed.xml"},
 
     // ---- render flags and inputs ----
     {"RenderNegativeSpp", "render", "--spp -1", "{in}/valid.xml --spp -1 -o {out}", "--spp"},
@@ -359,27 +359,26 @@ const BadInputCase kCases[] = {
     {"RenderNegativeTime", "render", "--time -3", "{in}/valid.xml --time -3 -o {out}", "--time"},
     {"RenderNegativeThreads", "render", "--threads -1", "{in}/valid.xml -t -1 -o {out}", "--threads"},
     {"RenderNegativeSnapshot", "render", "--snapshot -1", "{in}/valid.xml --snapshot -1 -o {out}", "--snapshot"},
-    {"RenderBsdfFraction", "render", "--bsdf-fraction 1.5", "{in}/valid.xml --atlas {in}/atlas.h5 --bsdf-fraction 1.5 -o {out}", "--bsdf-fraction"},
-    {"RenderBsdfFractionWord", "render", "--bsdf-fraction neither auto nor a number", "{in}/valid.xml --atlas {in}/atlas.h5 --bsdf-fraction half -o {out}", "--bsdf-fraction"},
-    {"RenderMinGainBelowOne", "render", "--min-gain 0.5", "{in}/valid.xml --atlas {in}/atlas.h5 --min-gain 0.5 -o {out}", "--min-gain"},
-    {"RenderRrThresholdZero", "render", "--rr-threshold 0", "{in}/valid.xml --rr-threshold 0 -o {out}", "--rr-threshold"},
-    {"RenderRrThresholdAboveOne", "render", "--rr-threshold 2", "{in}/valid.xml --rr-threshold 2 -o {out}", "--rr-threshold"},
-    {"RenderRrDepthZero", "render", "--rr-depth 0", "{in}/valid.xml --rr-depth 0 -o {out}", "--rr-depth"},
-    {"RenderNegativeGuideVertices", "render", "--guide-vertices -1", "{in}/valid.xml --atlas {in}/atlas.h5 --guide-vertices -1 -o {out}", "--guide-vertices"},
-    {"RenderAutoWithoutAtlas", "render", "--mode auto without --atlas", "{in}/valid.xml --mode auto -o {out}", "--atlas"},
-    {"RenderUnknownMode", "render", "--mode that does not exist", "{in}/valid.xml --mode bogus -o {out}", "bogus"},
-    {"RenderUnknownCaustics", "render", "--caustics that does not exist", "{in}/valid.xml --caustics sometimes -o {out}", "sometimes"},
-    {"RenderUnknownProduct", "render", "--product that is neither on nor off", "{in}/valid.xml --product maybe -o {out}", "maybe"},
-    {"RenderUnknownConnect", "render", "--connect that does not exist", "{in}/valid.xml --connect sometimes -o {out}", "sometimes"},
-    {"RenderUnknownSampler", "render", "--sampler that does not exist", "{in}/valid.xml --sampler halton -o {out}", "halton"},
-    {"RenderLightPathsZero", "render", "--light-paths 0", "{in}/valid.xml --caustics on --light-paths 0 -o {out}", "--light-paths"},
-    {"RenderCacheModeWithoutAtlas", "render", "--mode nee+cache without --atlas", "{in}/valid.xml --mode nee+cache -o {out}", "--atlas"},
+    {"RenderBsdfFraction", "render", "--set bsdf-fraction=1.5", "{in}/valid.xml --atlas {in}/atlas.h5 --set bsdf-fraction=1.5 -o {out}", "bsdf-fraction"},
+    {"RenderBsdfFractionWord", "render", "bsdf-fraction neither auto nor a number", "{in}/valid.xml --atlas {in}/atlas.h5 --set bsdf-fraction=half -o {out}", "bsdf-fraction"},
+    {"RenderMinGainBelowOne", "render", "--set min-gain=0.5", "{in}/valid.xml --atlas {in}/atlas.h5 --set min-gain=0.5 -o {out}", "min-gain"},
+    {"RenderRrThresholdZero", "render", "--set rr-threshold=0", "{in}/valid.xml --set rr-threshold=0 -o {out}", "rr-threshold"},
+    {"RenderRrThresholdAboveOne", "render", "--set rr-threshold=2", "{in}/valid.xml --set rr-threshold=2 -o {out}", "rr-threshold"},
+    {"RenderRrDepthZero", "render", "--set rr-depth=0", "{in}/valid.xml --set rr-depth=0 -o {out}", "rr-depth"},
+    {"RenderNegativeGuideVertices", "render", "--set guide-vertices=-1", "{in}/valid.xml --atlas {in}/atlas.h5 --set guide-vertices=-1 -o {out}", "guide-vertices"},
+    {"RenderUnknownMode", "render", "mode that does not exist", "{in}/valid.xml --set mode=bogus -o {out}", "bogus"},
+    {"RenderUnknownCaustics", "render", "caustics that does not exist", "{in}/valid.xml --set caustics=sometimes -o {out}", "sometimes"},
+    {"RenderUnknownProduct", "render", "product that is neither on nor off", "{in}/valid.xml --set product=maybe -o {out}", "maybe"},
+    {"RenderUnknownConnect", "render", "connect that does not exist", "{in}/valid.xml --set connect=sometimes -o {out}", "sometimes"},
+    {"RenderUnknownSampler", "render", "sampler that does not exist", "{in}/valid.xml --set sampler=halton -o {out}", "halton"},
+    {"RenderLightPathsZero", "render", "--set light-paths=0", "{in}/valid.xml --set caustics=on --set light-paths=0 -o {out}", "light-paths"},
+    {"RenderCacheModeWithoutAtlas", "render", "mode=nee+cache without --atlas", "{in}/valid.xml --set mode=nee+cache -o {out}", "--atlas"},
     {"RenderSampleRangeWithTime", "render", "--sample-range with --time", "{in}/valid.xml --time 1 --sample-range 0:2 -o {out}", "--time"},
-    {"RenderSampleRangeAuto", "render", "--sample-range with --mode auto (a pilot)", "{in}/caustic.xml --atlas {in}/atlas.h5 --mode auto --spp 4 --sample-range 0:2 -o {out}", "--mode auto"},
+    {"RenderSampleRangeAuto", "render", "--sample-range with the pilot (the default with --atlas)", "{in}/caustic.xml --atlas {in}/atlas.h5 --spp 4 --sample-range 0:2 -o {out}", "pilot=off"},
     {"RenderSampleRangeBeyondSpp", "render", "--sample-range beyond --spp", "{in}/valid.xml --spp 4 --sample-range 2:8 -o {out}", "2:8"},
     {"RenderSampleRangeReversed", "render", "--sample-range 5:2", "{in}/valid.xml --spp 8 --sample-range 5:2 -o {out}", "--sample-range"},
     {"RenderSampleRangeSnapshot", "render", "--sample-range with --snapshot", "{in}/valid.xml --spp 4 --sample-range 0:2 --snapshot 5 -o {out}", "--snapshot"},
-    {"RenderSampleRangeLearn", "render", "--sample-range with --learn (maps refit from earlier samples)", "{in}/caustic.xml --atlas {in}/atlas.h5 --learn --spp 4 --sample-range 0:2 -o {out}", "--learn"},
+    {"RenderSampleRangeLearn", "render", "--sample-range with --set learn=on (maps refit from earlier samples)", "{in}/caustic.xml --atlas {in}/atlas.h5 --set learn=on --set pilot=off --spp 4 --sample-range 0:2 -o {out}", "--learn"},
     {"RenderUnknownFlag", "render", "a flag that does not exist", "{in}/valid.xml --no-such-flag -o {out}", "--no-such-flag"},
     {"RenderNoOutput", "render", "-o left out", "{in}/valid.xml", "--output"},
     {"RenderAtlasMissing", "render", "--atlas file does not exist", "{in}/valid.xml --atlas {in}/missing.h5 -o {out}", "missing.h5"},
@@ -394,63 +393,61 @@ const BadInputCase kCases[] = {
     {"RenderOutputIsDirectory", "render", "output path is a folder", "{in}/valid.xml -o {in}/adir", "directory"},
 
     // ---- trace-photons ----
-    {"TracePhotonsZeroPaths", "trace-photons", "--paths 0", "{in}/valid.xml --paths 0 -o {out}", "--paths"},
-    {"TracePhotonsCausticShareAboveOne", "trace-photons", "--min-caustic-share 2", "{in}/valid.xml --min-caustic-share 2 -o {out}", "--min-caustic-share"},
-    {"TracePhotonsNegativePaths", "trace-photons", "--paths -5 (once wrapped to 2^64-5)", "{in}/valid.xml --paths -5 -o {out}", "--paths"},
-    {"TracePhotonsTextPaths", "trace-photons", "--paths abc", "{in}/valid.xml --paths abc -o {out}", "--paths"},
-    {"TracePhotonsZeroPhotons", "trace-photons", "--photons 0", "{in}/valid.xml --photons 0 -o {out}", "--photons"},
-    {"TracePhotonsPathsAndPhotons", "trace-photons", "--paths and --photons", "{in}/valid.xml --paths 100 --photons 100 -o {out}", "not both"},
-    {"TracePhotonsPhotonsWithPathRange", "trace-photons", "--photons with --path-range", "{in}/caustic.xml --photons 1000 --path-range 0:10 -o {out}", "--path-range needs --paths"},
-    {"TracePhotonsPathRangeBeyond", "trace-photons", "--path-range beyond --paths", "{in}/caustic.xml --paths 100 --path-range 50:200 -o {out}", "--path-range 50:200"},
-    {"TracePhotonsPathRangeReversed", "trace-photons", "--path-range 5:2", "{in}/caustic.xml --paths 100 --path-range 5:2 -o {out}", "--path-range"},
-    {"TracePhotonsZeroDepth", "trace-photons", "--max-depth 0", "{in}/valid.xml --max-depth 0 -o {out}", "--max-depth"},
-    {"TracePhotonsNegativeDepth", "trace-photons", "--max-depth -3", "{in}/valid.xml --max-depth -3 -o {out}", "--max-depth"},
-    {"TracePhotonsZeroRrDepth", "trace-photons", "--rr-depth 0", "{in}/valid.xml --rr-depth 0 -o {out}", "--rr-depth"},
-    {"TracePhotonsCutoff", "trace-photons", "--cutoff 1", "{in}/valid.xml --cutoff 1 -o {out}", "--cutoff"},
+    {"TracePhotonsCausticShareAboveOne", "trace-photons", "--set min-caustic-share=2", "{in}/valid.xml --set min-caustic-share=2 -o {out}", "min-caustic-share"},
+    {"TracePhotonsNegativePaths", "trace-photons", "--set photon-paths=-5 (once wrapped to 2^64-5)", "{in}/valid.xml --set photon-paths=-5 -o {out}", "photon-paths"},
+    {"TracePhotonsTextPaths", "trace-photons", "--set photon-paths=abc", "{in}/valid.xml --set photon-paths=abc -o {out}", "photon-paths"},
+    {"TracePhotonsZeroPhotons", "trace-photons", "--set photon-count=0", "{in}/valid.xml --set photon-count=0 -o {out}", "photon-count"},
+    {"TracePhotonsPhotonsWithPathRange", "trace-photons", "photon-count with --path-range", "{in}/caustic.xml --set photon-count=1000 --path-range 0:10 -o {out}", "--path-range needs the setting photon-paths"},
+    {"TracePhotonsPathRangeBeyond", "trace-photons", "--path-range beyond photon-paths", "{in}/caustic.xml --set photon-paths=100 --path-range 50:200 -o {out}", "--path-range 50:200"},
+    {"TracePhotonsPathRangeReversed", "trace-photons", "--path-range 5:2", "{in}/caustic.xml --set photon-paths=100 --path-range 5:2 -o {out}", "--path-range"},
+    {"TracePhotonsZeroDepth", "trace-photons", "--set photon-depth=0", "{in}/valid.xml --set photon-depth=0 -o {out}", "photon-depth"},
+    {"TracePhotonsNegativeDepth", "trace-photons", "--set photon-depth=-3", "{in}/valid.xml --set photon-depth=-3 -o {out}", "photon-depth"},
+    {"TracePhotonsZeroRrDepth", "trace-photons", "--set photon-rr-depth=0", "{in}/valid.xml --set photon-rr-depth=0 -o {out}", "photon-rr-depth"},
+    {"TracePhotonsCutoff", "trace-photons", "--set photon-cutoff=1", "{in}/valid.xml --set photon-cutoff=1 -o {out}", "photon-cutoff"},
     {"TracePhotonsNegativeThreads", "trace-photons", "--threads -1", "{in}/valid.xml -t -1 -o {out}", "--threads"},
     {"TracePhotonsUnknownFlag", "trace-photons", "a flag that does not exist", "{in}/valid.xml --no-such-flag 3 -o {out}", "--no-such-flag"},
     {"TracePhotonsOutputDirMissing", "trace-photons", "output folder does not exist", "{in}/valid.xml -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
     {"TracePhotonsOutputIsDirectory", "trace-photons", "output path is a folder", "{in}/valid.xml -o {in}/adir", "directory"},
 
     // ---- place-caches ----
-    {"PlaceCachesZeroCount", "place-caches", "--count 0", "{in}/valid.xml --photons {in}/photons.h5 --count 0 -o {out}", "--count"},
-    {"PlaceCachesNegativeCount", "place-caches", "--count -3", "{in}/valid.xml --photons {in}/photons.h5 --count -3 -o {out}", "--count"},
-    {"PlaceCachesNegativeStride", "place-caches", "--camera-stride -1", "{in}/valid.xml --photons {in}/photons.h5 --camera-stride -1 -o {out}", "--camera-stride"},
-    {"PlaceCachesCausticShareAboveOne", "place-caches", "--min-caustic-share 2", "{in}/valid.xml --photons {in}/photons.h5 --min-caustic-share 2 -o {out}", "--min-caustic-share"},
-    {"PlaceCachesZeroResolution", "place-caches", "--resolution 0x4", "{in}/valid.xml --photons {in}/photons.h5 --resolution 0x4 -o {out}", "--resolution"},
-    {"PlaceCachesNegativeThreads", "place-caches", "--threads -1", "{in}/valid.xml --photons {in}/photons.h5 -t -1 -o {out}", "--threads"},
-    {"PlaceCachesNoPhotons", "place-caches", "--photons left out", "{in}/valid.xml -o {out}", "--photons"},
-    {"PlaceCachesPhotonsMissing", "place-caches", "photon map does not exist", "{in}/valid.xml --photons {in}/missing.h5 -o {out}", "missing.h5"},
-    {"PlaceCachesPhotonsOtherScene", "place-caches", "photon map made for another scene", "{in}/valid.xml --photons {in}/photons.h5 -o {out}", "another scene"},
-    {"PlaceCachesPhotonsAreAtlas", "place-caches", "an atlas given as the photon map", "{in}/valid.xml --photons {in}/atlas.h5 -o {out}", "iris-cache-atlas"},
-    {"PlaceCachesPhotonsAreCaches", "place-caches", "cache points given as the photon map", "{in}/valid.xml --photons {in}/caches.h5 -o {out}", "iris-cache-points"},
-    {"PlaceCachesPhotonsNotHdf5", "place-caches", "photon map is a text file", "{in}/valid.xml --photons {in}/text.h5 -o {out}", "not an HDF5 file"},
-    {"PlaceCachesPhotonsTruncated", "place-caches", "photon map cut off midway", "{in}/valid.xml --photons {in}/truncated_photons.h5 -o {out}", "truncated_photons.h5"},
-    {"PlaceCachesOutputIsDirectory", "place-caches", "output path is a folder", "{in}/caustic.xml --photons {in}/photons.h5 -o {in}/adir", "directory"},
-    {"PlaceCachesOutputDirMissing", "place-caches", "output folder does not exist", "{in}/valid.xml --photons {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
+    {"PlaceCachesZeroCount", "place-caches", "--set cache-count=0", "{in}/valid.xml --photon-map {in}/photons.h5 --set cache-count=0 -o {out}", "cache-count"},
+    {"PlaceCachesNegativeCount", "place-caches", "--set cache-count=-3", "{in}/valid.xml --photon-map {in}/photons.h5 --set cache-count=-3 -o {out}", "cache-count"},
+    {"PlaceCachesNegativeStride", "place-caches", "--set camera-stride=-1", "{in}/valid.xml --photon-map {in}/photons.h5 --set camera-stride=-1 -o {out}", "camera-stride"},
+    {"PlaceCachesCausticShareAboveOne", "place-caches", "--set min-caustic-share=2", "{in}/valid.xml --photon-map {in}/photons.h5 --set min-caustic-share=2 -o {out}", "min-caustic-share"},
+    {"PlaceCachesZeroResolution", "place-caches", "--resolution 0x4", "{in}/valid.xml --photon-map {in}/photons.h5 --resolution 0x4 -o {out}", "--resolution"},
+    {"PlaceCachesNegativeThreads", "place-caches", "--threads -1", "{in}/valid.xml --photon-map {in}/photons.h5 -t -1 -o {out}", "--threads"},
+    {"PlaceCachesNoPhotons", "place-caches", "--photon-map left out", "{in}/valid.xml -o {out}", "--photon-map"},
+    {"PlaceCachesPhotonsMissing", "place-caches", "photon map does not exist", "{in}/valid.xml --photon-map {in}/missing.h5 -o {out}", "missing.h5"},
+    {"PlaceCachesPhotonsOtherScene", "place-caches", "photon map made for another scene", "{in}/valid.xml --photon-map {in}/photons.h5 -o {out}", "another scene"},
+    {"PlaceCachesPhotonsAreAtlas", "place-caches", "an atlas given as the photon map", "{in}/valid.xml --photon-map {in}/atlas.h5 -o {out}", "iris-cache-atlas"},
+    {"PlaceCachesPhotonsAreCaches", "place-caches", "cache points given as the photon map", "{in}/valid.xml --photon-map {in}/caches.h5 -o {out}", "iris-cache-points"},
+    {"PlaceCachesPhotonsNotHdf5", "place-caches", "photon map is a text file", "{in}/valid.xml --photon-map {in}/text.h5 -o {out}", "not an HDF5 file"},
+    {"PlaceCachesPhotonsTruncated", "place-caches", "photon map cut off midway", "{in}/valid.xml --photon-map {in}/truncated_photons.h5 -o {out}", "truncated_photons.h5"},
+    {"PlaceCachesOutputIsDirectory", "place-caches", "output path is a folder", "{in}/caustic.xml --photon-map {in}/photons.h5 -o {in}/adir", "directory"},
+    {"PlaceCachesOutputDirMissing", "place-caches", "output folder does not exist", "{in}/valid.xml --photon-map {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
 
     // ---- fill-caches ----
-    {"FillCachesZeroK", "fill-caches", "--k 0", "{in}/caches.h5 --photons {in}/photons.h5 --k 0 -o {out}", "--k"},
-    {"FillCachesNegativeK", "fill-caches", "--k -2", "{in}/caches.h5 --photons {in}/photons.h5 --k -2 -o {out}", "--k"},
-    {"FillCachesZeroResolution", "fill-caches", "--resolution 0", "{in}/caches.h5 --photons {in}/photons.h5 --resolution 0 -o {out}", "--resolution"},
-    {"FillCachesHugeResolution", "fill-caches", "--resolution 257", "{in}/caches.h5 --photons {in}/photons.h5 --resolution 257 -o {out}", "--resolution"},
-    {"FillCachesZeroFloor", "fill-caches", "--floor 0", "{in}/caches.h5 --photons {in}/photons.h5 --floor 0 -o {out}", "--floor"},
-    {"FillCachesFloorAboveOne", "fill-caches", "--floor 1.5", "{in}/caches.h5 --photons {in}/photons.h5 --floor 1.5 -o {out}", "--floor"},
-    {"FillCachesZeroRadius", "fill-caches", "--max-radius 0", "{in}/caches.h5 --photons {in}/photons.h5 --max-radius 0 -o {out}", "--max-radius"},
-    {"FillCachesNegativeSigma", "fill-caches", "--filter-sigma -1", "{in}/caches.h5 --photons {in}/photons.h5 --filter-sigma -1 -o {out}", "--filter-sigma"},
-    {"FillCachesNegativeThreads", "fill-caches", "--threads -1", "{in}/caches.h5 --photons {in}/photons.h5 -t -1 -o {out}", "--threads"},
-    {"FillCachesCachesMissing", "fill-caches", "cache file does not exist", "{in}/missing.h5 --photons {in}/photons.h5 -o {out}", "missing.h5"},
-    {"FillCachesPhotonsMissing", "fill-caches", "photon map does not exist", "{in}/caches.h5 --photons {in}/missing.h5 -o {out}", "missing.h5"},
-    {"FillCachesMismatchedScenes", "fill-caches", "caches and photons of different scenes", "{in}/caches.h5 --photons {in}/furnace_photons.h5 -o {out}", "another scene"},
-    {"FillCachesPhotonsAreAtlas", "fill-caches", "an atlas given as the photon map", "{in}/caches.h5 --photons {in}/atlas.h5 -o {out}", "iris-cache-atlas"},
-    {"FillCachesCachesArePhotons", "fill-caches", "a photon map given as the caches", "{in}/photons.h5 --photons {in}/photons.h5 -o {out}", "iris-photon-map"},
-    {"FillCachesCachesNotHdf5", "fill-caches", "cache file is a text file", "{in}/text.h5 --photons {in}/photons.h5 -o {out}", "not an HDF5 file"},
-    {"FillCachesCachesEmpty", "fill-caches", "cache file is empty", "{in}/empty.h5 --photons {in}/photons.h5 -o {out}", "empty.h5"},
-    {"FillCachesCachesTruncated", "fill-caches", "cache file cut off midway", "{in}/truncated_caches.h5 --photons {in}/photons.h5 -o {out}", "truncated_caches.h5"},
-    {"FillCachesPhotonsTruncated", "fill-caches", "photon map cut off midway", "{in}/caches.h5 --photons {in}/truncated_photons.h5 -o {out}", "truncated_photons.h5"},
-    {"FillCachesCachesPlainHdf5", "fill-caches", "HDF5 file that is no stage file", "{in}/plain.h5 --photons {in}/photons.h5 -o {out}", "plain.h5"},
-    {"FillCachesOutputDirMissing", "fill-caches", "output folder does not exist", "{in}/caches.h5 --photons {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
-    {"FillCachesOutputIsDirectory", "fill-caches", "output path is a folder", "{in}/caches.h5 --photons {in}/photons.h5 -o {in}/adir", "directory"},
+    {"FillCachesZeroK", "fill-caches", "--set gather-count=0", "{in}/caches.h5 --photon-map {in}/photons.h5 --set gather-count=0 -o {out}", "gather-count"},
+    {"FillCachesNegativeK", "fill-caches", "--set gather-count=-2", "{in}/caches.h5 --photon-map {in}/photons.h5 --set gather-count=-2 -o {out}", "gather-count"},
+    {"FillCachesZeroResolution", "fill-caches", "--set map-resolution=0", "{in}/caches.h5 --photon-map {in}/photons.h5 --set map-resolution=0 -o {out}", "map-resolution"},
+    {"FillCachesHugeResolution", "fill-caches", "--set map-resolution=257", "{in}/caches.h5 --photon-map {in}/photons.h5 --set map-resolution=257 -o {out}", "map-resolution"},
+    {"FillCachesZeroFloor", "fill-caches", "--set floor=0", "{in}/caches.h5 --photon-map {in}/photons.h5 --set floor=0 -o {out}", "floor"},
+    {"FillCachesFloorAboveOne", "fill-caches", "--set floor=1.5", "{in}/caches.h5 --photon-map {in}/photons.h5 --set floor=1.5 -o {out}", "floor"},
+    {"FillCachesZeroRadius", "fill-caches", "--set max-radius=0", "{in}/caches.h5 --photon-map {in}/photons.h5 --set max-radius=0 -o {out}", "max-radius"},
+    {"FillCachesNegativeSigma", "fill-caches", "--set filter-sigma=-1", "{in}/caches.h5 --photon-map {in}/photons.h5 --set filter-sigma=-1 -o {out}", "filter-sigma"},
+    {"FillCachesNegativeThreads", "fill-caches", "--threads -1", "{in}/caches.h5 --photon-map {in}/photons.h5 -t -1 -o {out}", "--threads"},
+    {"FillCachesCachesMissing", "fill-caches", "cache file does not exist", "{in}/missing.h5 --photon-map {in}/photons.h5 -o {out}", "missing.h5"},
+    {"FillCachesPhotonsMissing", "fill-caches", "photon map does not exist", "{in}/caches.h5 --photon-map {in}/missing.h5 -o {out}", "missing.h5"},
+    {"FillCachesMismatchedScenes", "fill-caches", "caches and photons of different scenes", "{in}/caches.h5 --photon-map {in}/furnace_photons.h5 -o {out}", "another scene"},
+    {"FillCachesPhotonsAreAtlas", "fill-caches", "an atlas given as the photon map", "{in}/caches.h5 --photon-map {in}/atlas.h5 -o {out}", "iris-cache-atlas"},
+    {"FillCachesCachesArePhotons", "fill-caches", "a photon map given as the caches", "{in}/photons.h5 --photon-map {in}/photons.h5 -o {out}", "iris-photon-map"},
+    {"FillCachesCachesNotHdf5", "fill-caches", "cache file is a text file", "{in}/text.h5 --photon-map {in}/photons.h5 -o {out}", "not an HDF5 file"},
+    {"FillCachesCachesEmpty", "fill-caches", "cache file is empty", "{in}/empty.h5 --photon-map {in}/photons.h5 -o {out}", "empty.h5"},
+    {"FillCachesCachesTruncated", "fill-caches", "cache file cut off midway", "{in}/truncated_caches.h5 --photon-map {in}/photons.h5 -o {out}", "truncated_caches.h5"},
+    {"FillCachesPhotonsTruncated", "fill-caches", "photon map cut off midway", "{in}/caches.h5 --photon-map {in}/truncated_photons.h5 -o {out}", "truncated_photons.h5"},
+    {"FillCachesCachesPlainHdf5", "fill-caches", "HDF5 file that is no stage file", "{in}/plain.h5 --photon-map {in}/photons.h5 -o {out}", "plain.h5"},
+    {"FillCachesOutputDirMissing", "fill-caches", "output folder does not exist", "{in}/caches.h5 --photon-map {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
+    {"FillCachesOutputIsDirectory", "fill-caches", "output path is a folder", "{in}/caches.h5 --photon-map {in}/photons.h5 -o {in}/adir", "directory"},
 
     // ---- inspect-caches ----
     {"InspectMissing", "inspect-caches", "stage file does not exist", "{in}/missing.h5", "missing.h5"},
@@ -469,7 +466,7 @@ const BadInputCase kCases[] = {
     {"MergeImagesOverlap", "merge-images", "parts whose sample ranges overlap (0:2, 1:3)", "{in}/part_a.exr {in}/part_overlap.exr -o {out}", "overlap: both hold samples 1:2"},
     {"MergeImagesMissingRange", "merge-images", "a part missing (0:2 of 4 spp given)", "{in}/part_a.exr -o {out}", "samples 2:4 missing"},
     {"MergeImagesOtherScene", "merge-images", "parts of different scenes", "{in}/part_a.exr {in}/part_other_scene.exr -o {out}", "another scene"},
-    {"MergeImagesOtherSettings", "merge-images", "parts with different --max-depth", "{in}/part_a.exr {in}/part_depth.exr -o {out}", "max_depth 3"},
+    {"MergeImagesOtherSettings", "merge-images", "parts with different max-depth", "{in}/part_a.exr {in}/part_depth.exr -o {out}", "max-depth=3"},
     {"MergeImagesNotAPart", "merge-images", "a whole render given as a part", "{in}/part_a.exr {in}/image.exr -o {out}", "image.exr: not a part"},
     {"MergeImagesTruncated", "merge-images", "a part cut off midway", "{in}/part_a.exr {in}/truncated_part_b.exr -o {out}", "truncated_part_b.exr"},
     {"MergeImagesSamePartTwice", "merge-images", "one part given twice", "{in}/part_a.exr {in}/part_a.exr {in}/part_b.exr -o {out}", "overlap"},
@@ -479,7 +476,7 @@ const BadInputCase kCases[] = {
     {"MergePhotonsOverlap", "merge-photons", "parts whose path ranges overlap (0:1000, 500:1500)", "{in}/photons_a.h5 {in}/photons_overlap.h5 -o {out}", "overlap: both hold paths 500:1000"},
     {"MergePhotonsMissingRange", "merge-photons", "a part missing (1000:2000 of 2000 paths)", "{in}/photons_b.h5 -o {out}", "paths 0:1000 missing"},
     {"MergePhotonsOtherScene", "merge-photons", "parts of different scenes", "{in}/photons_a.h5 {in}/photons_other_scene.h5 -o {out}", "another scene"},
-    {"MergePhotonsOtherSettings", "merge-photons", "parts with different --max-depth", "{in}/photons_a.h5 {in}/photons_depth.h5 -o {out}", "max_depth"},
+    {"MergePhotonsOtherSettings", "merge-photons", "parts with different photon-depth", "{in}/photons_a.h5 {in}/photons_depth.h5 -o {out}", "max_depth"},
     {"MergePhotonsNotAPart", "merge-photons", "a whole photon map given as a part", "{in}/photons_a.h5 {in}/photons.h5 -o {out}", "photons.h5: not a part"},
     {"MergePhotonsTruncated", "merge-photons", "a part cut off midway", "{in}/photons_a.h5 {in}/truncated_photons_b.h5 -o {out}", "truncated_photons_b.h5"},
 

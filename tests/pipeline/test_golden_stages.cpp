@@ -182,7 +182,7 @@ TEST(GoldenStages, TracePhotonsReproducesTheGoldenPhotons) {
 // ~0.5 degree, same origin), count within 2 %, camera caches within 2.
 TEST(GoldenStages, PlaceCachesReproducesTheGoldenCaches) {
     TempDir dir;
-    run_stage(tool("place-caches") + " " + scene_path() + " -q --photons " + golden("photons.h5") + " " +
+    run_stage(tool("place-caches") + " " + scene_path() + " -q --photon-map " + golden("photons.h5") + " " +
               args("place-caches") + " -o " + dir.file("c.h5"));
     if (HasFatalFailure()) return;
     const CachePoints g = read_cache_points(golden("caches.h5")).caches;
@@ -218,7 +218,7 @@ TEST(GoldenStages, PlaceCachesReproducesTheGoldenCaches) {
 // for >= 95 % of caches.
 TEST(GoldenStages, FillCachesReproducesTheGoldenAtlas) {
     TempDir dir;
-    run_stage(tool("fill-caches") + " " + golden("caches.h5") + " -q --photons " + golden("photons.h5") + " " +
+    run_stage(tool("fill-caches") + " " + golden("caches.h5") + " -q --photon-map " + golden("photons.h5") + " " +
               args("fill-caches") + " -o " + dir.file("a.h5"));
     if (HasFatalFailure()) return;
     const CacheAtlas g = read_cache_atlas(golden("atlas.h5")).atlas;

@@ -30,7 +30,7 @@ protected:
             ToolResult r = run_command(cmd);
             ASSERT_EQ(r.status, 0) << cmd << "\n" << r.output;
         };
-        run(tool("trace-photons") + " " + scene() + " -o " + in("photons.h5") + " --paths 3000" + q);
+        run(tool("trace-photons") + " " + scene() + " -o " + in("photons.h5") + " --set photon-paths=3000" + q);
     }
     static void TearDownTestSuite() {
         delete dir_;
@@ -51,14 +51,14 @@ TempDir* GuidingCli::dir_ = nullptr;
 
 TEST_F(GuidingCli, QuietSuccessPrintsNothing) {
     TempDir d;
-    ToolResult r = run_command(tool("trace-photons") + " " + scene() + " -q --paths 200 -o " + d.file("p.h5"));
+    ToolResult r = run_command(tool("trace-photons") + " " + scene() + " -q --set photon-paths=200 -o " + d.file("p.h5"));
     EXPECT_EQ(r.status, 0);
     EXPECT_EQ(r.output, "");
-    r = run_command(tool("place-caches") + " " + scene() + " --photons " + d.file("p.h5") + " -q --count 10 -o " +
+    r = run_command(tool("place-caches") + " " + scene() + " --photon-map " + d.file("p.h5") + " -q --set cache-count=10 -o " +
                     d.file("c.h5"));
     EXPECT_EQ(r.status, 0);
     EXPECT_EQ(r.output, "");
-    r = run_command(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + d.file("p.h5") + " -q --k 20 -o " +
+    r = run_command(tool("fill-caches") + " " + d.file("c.h5") + " --photon-map " + d.file("p.h5") + " -q --set gather-count=20 -o " +
                     d.file("a.h5"));
     EXPECT_EQ(r.status, 0);
     EXPECT_EQ(r.output, "");
@@ -69,7 +69,7 @@ TEST_F(GuidingCli, QuietSuccessPrintsNothing) {
 TEST_F(GuidingCli, TracePhotonsIsDeterministicForAnyThreadCount) {
     TempDir d;
     auto trace = [&](const std::string& name, const std::string& extra) {
-        ToolResult r = run_command(tool("trace-photons") + " " + scene() + " -q --paths 5000 -o " + d.file(name) + extra);
+        ToolResult r = run_command(tool("trace-photons") + " " + scene() + " -q --set photon-paths=5000 -o " + d.file(name) + extra);
         EXPECT_EQ(r.status, 0) << r.output;
         return read_photon_map(d.file(name)).photons;
     };
@@ -92,15 +92,15 @@ TEST_F(GuidingCli, TracePhotonsIsDeterministicForAnyThreadCount) {
     EXPECT_TRUE(c.size() != a.size() || c.position[0][0] != a.position[0][0]) << "the seed has no effect";
 }
 
-// --photons M: the path count comes from photons per path on a probe of the first paths, so the map
-// holds about M photons and is, bit for bit, the map of --paths with that count; the count does not depend
+// photon-count=M: the path count comes from photons per path on a probe of the first paths, so the map
+// holds about M photons and is, bit for bit, the map of photon-paths with that count; the count does not depend
 // on the thread count.
 TEST_F(GuidingCli, TracePhotonsByPhotonCountIsTheMapOfItsPathCount) {
     TempDir d;
     const uint64_t target = 150000;
-    const std::string base = tool("trace-photons") + " " + scene() + " -q --seed 3 --max-depth 6";
-    run_ok(base + " --photons " + std::to_string(target) + " -t 2 -o " + d.file("m.h5"));
-    run_ok(base + " --photons " + std::to_string(target) + " -t 1 -o " + d.file("m1.h5"));
+    const std::string base = tool("trace-photons") + " " + scene() + " -q --seed 3 --set photon-depth=6";
+    run_ok(base + " --set photon-count=" + std::to_string(target) + " -t 2 -o " + d.file("m.h5"));
+    run_ok(base + " --set photon-count=" + std::to_string(target) + " -t 1 -o " + d.file("m1.h5"));
     const PhotonMapFile m = read_photon_map(d.file("m.h5"));
     // Photons per path on 32768 paths is within a few percent of the whole run's.
     EXPECT_GT(m.photons.size(), target * 95 / 100);
@@ -108,7 +108,7 @@ TEST_F(GuidingCli, TracePhotonsByPhotonCountIsTheMapOfItsPathCount) {
     EXPECT_GT(m.photons.emitted_paths, 32768u);  // not the probe's count: the target needs more paths
     EXPECT_EQ(read_photon_map(d.file("m1.h5")).photons.emitted_paths, m.photons.emitted_paths);
     EXPECT_EQ(m.header.provenance.parameters.at("photons_target"), double(target));
-    run_ok(base + " --paths " + std::to_string(m.photons.emitted_paths) + " -t 2 -o " + d.file("p.h5"));
+    run_ok(base + " --set photon-paths=" + std::to_string(m.photons.emitted_paths) + " -t 2 -o " + d.file("p.h5"));
     const PhotonMap p = read_photon_map(d.file("p.h5")).photons;
     ASSERT_EQ(p.size(), m.photons.size());
     EXPECT_EQ(std::memcmp(p.power.data(), m.photons.power.data(), p.size() * sizeof(RGB)), 0);
@@ -117,13 +117,13 @@ TEST_F(GuidingCli, TracePhotonsByPhotonCountIsTheMapOfItsPathCount) {
 
 TEST_F(GuidingCli, PlaceAndFillCachesAreDeterministicForAnyThreadCount) {
     TempDir d;
-    const std::string place = tool("place-caches") + " " + scene() + " --photons " + in("photons.h5") + " -q --count 80";
+    const std::string place = tool("place-caches") + " " + scene() + " --photon-map " + in("photons.h5") + " -q --set cache-count=80";
     const std::string fill = tool("fill-caches") + " ";
     for (const char* t : {"1", "2"}) {
         ToolResult r = run_command(place + " -t " + t + " -o " + d.file(std::string("c") + t + ".h5"));
         ASSERT_EQ(r.status, 0) << r.output;
-        r = run_command(fill + d.file(std::string("c") + t + ".h5") + " --photons " + in("photons.h5") +
-                        " -q --k 80 --resolution 8 -t " + t + " -o " + d.file(std::string("a") + t + ".h5"));
+        r = run_command(fill + d.file(std::string("c") + t + ".h5") + " --photon-map " + in("photons.h5") +
+                        " -q --set gather-count=80 --set map-resolution=8 -t " + t + " -o " + d.file(std::string("a") + t + ".h5"));
         ASSERT_EQ(r.status, 0) << r.output;
     }
     CachePoints c1 = read_cache_points(d.file("c1.h5")).caches, c2 = read_cache_points(d.file("c2.h5")).caches;
@@ -142,33 +142,33 @@ TEST_F(GuidingCli, PlaceAndFillCachesAreDeterministicForAnyThreadCount) {
     EXPECT_EQ(a1.usable, a2.usable);
 }
 
-// Skipping what a scene does not need: with --min-caustic-share, place-caches places no cache where
+// Skipping what a scene does not need: with min-caustic-share, place-caches places no cache where
 // less than that share of the photon power came through a specular chain, says so even with -q, and
 // the empty set flows through fill-caches to a render that stays unguided (no pilot) and records why.
 // The caustic box (glass sphere) keeps its caches at the pipeline's default share.
 TEST_F(GuidingCli, NoCachesWithoutLightThroughSpecularChains) {
     TempDir d;
     const std::string diffuse = data_file("render/sphere_light_over_plane.xml");
-    run_ok(tool("trace-photons") + " " + diffuse + " -q --paths 3000 --seed 5 -o " + d.file("p.h5"));
+    run_ok(tool("trace-photons") + " " + diffuse + " -q --set photon-paths=3000 --seed 5 -o " + d.file("p.h5"));
     // trace-photons records the share (place-caches then decides from the header alone): none here,
     // some on the caustic box.
     EXPECT_EQ(read_photon_map_header(d.file("p.h5")).provenance.parameters.at("caustic_share"), 0.0);
     EXPECT_GT(read_photon_map_header(in("photons.h5")).provenance.parameters.at("caustic_share"), 0.0);
-    ToolResult r = run_ok(tool("place-caches") + " " + diffuse + " --photons " + d.file("p.h5") +
-                       " -q --count 50 --min-caustic-share 0.005 -o " + d.file("c.h5"));
+    ToolResult r = run_ok(tool("place-caches") + " " + diffuse + " --photon-map " + d.file("p.h5") +
+                       " -q --set cache-count=50 --set min-caustic-share=0.005 -o " + d.file("c.h5"));
     EXPECT_NE(r.output.find("no caches: 0.00 % of the photon power arrives through specular chains"), std::string::npos)
         << r.output;
     EXPECT_EQ(read_cache_points(d.file("c.h5")).caches.size(), 0u);
-    run_ok(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + d.file("p.h5") + " -q -o " + d.file("a.h5"));
+    run_ok(tool("fill-caches") + " " + d.file("c.h5") + " --photon-map " + d.file("p.h5") + " -q -o " + d.file("a.h5"));
     EXPECT_EQ(read_cache_atlas(d.file("a.h5")).atlas.size(), 0u);
-    run_ok(tool("render") + " " + diffuse + " -q --spp 4 --mode auto --atlas " + d.file("a.h5") + " -o " + d.file("g.exr"));
+    run_ok(tool("render") + " " + diffuse + " -q --spp 4 --set pilot=on --atlas " + d.file("a.h5") + " -o " + d.file("g.exr"));
     const Image img = read_exr(d.file("g.exr"));
     EXPECT_EQ(img.metadata.at("iris:mode"), "nee+bsdf");
     EXPECT_EQ(img.metadata.at("iris:auto_guide"), "unguided: no cache in the atlas guides");
 
     // The same share on the caustic box: its glass sphere carries light, caches are placed.
-    r = run_ok(tool("place-caches") + " " + scene() + " --photons " + in("photons.h5") +
-            " -q --count 50 --min-caustic-share 0.005 -o " + d.file("cc.h5"));
+    r = run_ok(tool("place-caches") + " " + scene() + " --photon-map " + in("photons.h5") +
+            " -q --set cache-count=50 --set min-caustic-share=0.005 -o " + d.file("cc.h5"));
     EXPECT_EQ(r.output, "");
     EXPECT_GT(read_cache_points(d.file("cc.h5")).caches.size(), 0u);
 }
@@ -179,21 +179,21 @@ TEST_F(GuidingCli, NoCachesWithoutLightThroughSpecularChains) {
 TEST_F(GuidingCli, NoPhotonsWithoutSpecularSurfaces) {
     TempDir d;
     const std::string diffuse = data_file("render/sphere_light_over_plane.xml");
-    ToolResult r = run_ok(tool("trace-photons") + " " + diffuse + " -q --paths 3000 --min-caustic-share 0.005 -o " + d.file("p.h5"));
+    ToolResult r = run_ok(tool("trace-photons") + " " + diffuse + " -q --set photon-paths=3000 --set min-caustic-share=0.005 -o " + d.file("p.h5"));
     EXPECT_NE(r.output.find("has a specular (Dirac) lobe, so no light arrives through specular chains"), std::string::npos)
         << r.output;
     const PhotonMapFile pm = read_photon_map(d.file("p.h5"), "");
     EXPECT_EQ(pm.photons.size(), 0u);
     EXPECT_EQ(pm.header.provenance.parameters.at("caustic_share"), 0.0);
     EXPECT_EQ(pm.header.provenance.parameters.at("paths"), 0.0);
-    run_ok(tool("place-caches") + " " + diffuse + " --photons " + d.file("p.h5") + " -q --count 50 --min-caustic-share 0.005 -o " +
+    run_ok(tool("place-caches") + " " + diffuse + " --photon-map " + d.file("p.h5") + " -q --set cache-count=50 --set min-caustic-share=0.005 -o " +
         d.file("c.h5"));
     EXPECT_EQ(read_cache_points(d.file("c.h5")).caches.size(), 0u);
-    run_ok(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + d.file("p.h5") + " -q -o " + d.file("a.h5"));
-    run_ok(tool("render") + " " + diffuse + " -q --spp 4 --mode auto --atlas " + d.file("a.h5") + " -o " + d.file("g.exr"));
+    run_ok(tool("fill-caches") + " " + d.file("c.h5") + " --photon-map " + d.file("p.h5") + " -q -o " + d.file("a.h5"));
+    run_ok(tool("render") + " " + diffuse + " -q --spp 4 --set pilot=on --atlas " + d.file("a.h5") + " -o " + d.file("g.exr"));
     EXPECT_EQ(read_exr(d.file("g.exr")).metadata.at("iris:mode"), "nee+bsdf");
 
-    r = run_ok(tool("trace-photons") + " " + scene() + " -q --paths 2000 --min-caustic-share 0.005 -o " + d.file("pc.h5"));
+    r = run_ok(tool("trace-photons") + " " + scene() + " -q --set photon-paths=2000 --set min-caustic-share=0.005 -o " + d.file("pc.h5"));
     EXPECT_EQ(r.output, "");
     EXPECT_GT(read_photon_map(d.file("pc.h5"), "").photons.size(), 0u);
 }
@@ -203,8 +203,8 @@ TEST_F(GuidingCli, NoPhotonsWithoutSpecularSurfaces) {
 // vertex, more; and at least one ray per path in every render.
 TEST_F(GuidingCli, RenderRecordsItsRaysAndCacheLookups) {
     TempDir d;
-    run_ok(tool("place-caches") + " " + scene() + " --photons " + in("photons.h5") + " -q --count 50 -o " + d.file("c.h5"));
-    run_ok(tool("fill-caches") + " " + d.file("c.h5") + " --photons " + in("photons.h5") + " -q --k 40 --resolution 8 -o " +
+    run_ok(tool("place-caches") + " " + scene() + " --photon-map " + in("photons.h5") + " -q --set cache-count=50 -o " + d.file("c.h5"));
+    run_ok(tool("fill-caches") + " " + d.file("c.h5") + " --photon-map " + in("photons.h5") + " -q --set gather-count=40 --set map-resolution=8 -o " +
            d.file("a.h5"));
     auto counts = [&](const std::string& name, const std::string& args) {
         run_ok(tool("render") + " " + scene() + " -q --spp 4 --seed 3 " + args + " -o " + d.file(name));
@@ -213,11 +213,11 @@ TEST_F(GuidingCli, RenderRecordsItsRaysAndCacheLookups) {
         EXPECT_GE(std::stoull(img.metadata.at("iris:rays")), paths) << name;
         return std::pair{std::stoull(img.metadata.at("iris:cache_lookups")), paths};
     };
-    EXPECT_EQ(counts("u.exr", "--mode nee+bsdf").first, 0u);
-    const auto [first, paths] = counts("f.exr", "--mode nee+bsdf+cache --atlas " + d.file("a.h5") + " --guide-vertices 1");
+    EXPECT_EQ(counts("u.exr", "--set mode=nee+bsdf").first, 0u);
+    const auto [first, paths] = counts("f.exr", "--set mode=nee+bsdf+cache --set pilot=off --atlas " + d.file("a.h5") + " --set guide-vertices=1");
     EXPECT_GT(first, 0u);
     EXPECT_LE(first, paths);
-    const auto every = counts("e.exr", "--mode nee+bsdf+cache --atlas " + d.file("a.h5") + " --guide-vertices 0").first;
+    const auto every = counts("e.exr", "--set mode=nee+bsdf+cache --set pilot=off --atlas " + d.file("a.h5") + " --set guide-vertices=0").first;
     EXPECT_GT(every, first);
 }
 

@@ -16,7 +16,7 @@
 // (above the threshold of ~4.9 in three), the NEE modes' at most 3.8. At 4096 spp bsdf+cache's largest
 // |z| in six runs was 4.3. So bsdf+cache renders 4096 spp, the others 1024 (about 20 s in all on two
 // cores). nee+bsdf+cache runs twice: as the fixed mode renders it (the first vertex guided) and as the
-// deep setting --mode auto may choose (every vertex guided, Russian roulette below throughput 0.1). The per-pixel test cannot see a 5 % bias in bsdf+cache (its pixels are too noisy: |z| <= 3.9
+// deep setting the pilot may choose (every vertex guided, Russian roulette below throughput 0.1). The per-pixel test cannot see a 5 % bias in bsdf+cache (its pixels are too noisy: |z| <= 3.9
 // for the scaled image); the block and image tests can. And the test proves its power: every mode's
 // guided image scaled by 1.05 must be rejected (measured in six runs: per-pixel |z| 6.5-8.8 for the NEE
 // modes, image-mean |z| 13-18 for all three modes).
@@ -45,18 +45,18 @@ constexpr int kBlock = 4;        // block size in pixels for the intermediate sc
 struct Mode {
     const char* name;
     int spp;
-    bool direct_atlas;  // bsdf+cache has no NEE: its caches include the direct light (fill-caches --direct)
+    bool direct_atlas;  // bsdf+cache has no NEE: its caches include the direct light (fill-caches --set direct-photons=on)
     const char* extra = "";
 };
-// The last: the deep setting --mode auto may choose (every vertex guided, less roulette).
-// The last two: hybrid caches (render --learn), the maps refit from photons and path samples after
+// The last: the deep setting the pilot may choose (every vertex guided, less roulette).
+// The last two: hybrid caches (render --set learn=on), the maps refit from photons and path samples after
 // 1, 2, 4, ... 512 spp, the fixed and the deep setting.
 const Mode kModes[] = {{"nee+cache", 1024, false},
                        {"bsdf+cache", 4096, true},
                        {"nee+bsdf+cache", 1024, false},
-                       {"nee+bsdf+cache", 1024, false, "--guide-vertices 0 --rr-threshold 0.1"},
-                       {"nee+bsdf+cache", 1024, false, "--learn"},
-                       {"nee+bsdf+cache", 1024, false, "--guide-vertices 0 --rr-threshold 0.1 --learn"}};
+                       {"nee+bsdf+cache", 1024, false, "--set guide-vertices=0 --set rr-threshold=0.1"},
+                       {"nee+bsdf+cache", 1024, false, "--set learn=on"},
+                       {"nee+bsdf+cache", 1024, false, "--set guide-vertices=0 --set rr-threshold=0.1 --set learn=on"}};
 constexpr int kModeCount = 6;
 
 // Two-sided normal critical value for tail probability p: z with erfc(z / sqrt 2) = p (bisection).
@@ -160,12 +160,12 @@ bool build_atlases(const std::string& scene, const TempDir& dir) {
         EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
         return r.status == 0;
     };
-    const std::string fill = tool("fill-caches") + " " + dir.file("caches.h5") + " -q --photons " +
-                             dir.file("photons.h5") + " --k 400";
-    return run(tool("trace-photons") + " " + scene + " -q --paths 50000 --seed 1 -o " + dir.file("photons.h5")) &&
-           run(tool("place-caches") + " " + scene + " -q --photons " + dir.file("photons.h5") + " --count 400 -o " +
+    const std::string fill = tool("fill-caches") + " " + dir.file("caches.h5") + " -q --photon-map " +
+                             dir.file("photons.h5") + " --set gather-count=400";
+    return run(tool("trace-photons") + " " + scene + " -q --set photon-paths=50000 --seed 1 -o " + dir.file("photons.h5")) &&
+           run(tool("place-caches") + " " + scene + " -q --photon-map " + dir.file("photons.h5") + " --set cache-count=400 -o " +
                dir.file("caches.h5")) &&
-           run(fill + " -o " + dir.file("atlas.h5")) && run(fill + " --direct -o " + dir.file("atlas_direct.h5"));
+           run(fill + " -o " + dir.file("atlas.h5")) && run(fill + " --set direct-photons=on -o " + dir.file("atlas_direct.h5"));
 }
 
 // Renders `scene` with --variance into DIR/NAME.exr and returns its layers.
@@ -196,11 +196,11 @@ TEST(GuidingUnbiased, GuidedModesAgreeWithUnguidedPerPixel) {
     int seed = 2;
     for (const Mode& m : kModes) {
         const std::string extra = m.extra;
-        const std::string label = std::string(m.name) + (extra.find("--guide-vertices") != std::string::npos ? " (deep)" : "") +
-                                  (extra.find("--learn") != std::string::npos ? " (hybrid)" : "");
+        const std::string label = std::string(m.name) + (extra.find("guide-vertices=") != std::string::npos ? " (deep)" : "") +
+                                  (extra.find("--set learn=on") != std::string::npos ? " (hybrid)" : "");
         SCOPED_TRACE(label + " " + m.extra);
         const Layers guided = render(scene, dir, "mode" + std::to_string(seed),
-                                     std::string("--mode ") + m.name + " --spp " + std::to_string(m.spp) +
+                                     std::string("--set pilot=off --set mode=") + m.name + " --spp " + std::to_string(m.spp) +
                                          " --seed " + std::to_string(seed) + " --atlas " +
                                          dir.file(m.direct_atlas ? "atlas_direct.h5" : "atlas.h5") + " " + m.extra);
         ++seed;
@@ -232,7 +232,7 @@ void expect_nee_modes_agree(const std::string& scene_file, const std::string& fl
     for (const char* mode : {"nee+cache", "nee+bsdf+cache"}) {
         SCOPED_TRACE(mode);
         const Layers guided = render(scene, dir, mode,
-                                     std::string("--mode ") + mode + " " + flags + spp_flag + " --seed " +
+                                     std::string("--set pilot=off --set mode=") + mode + " " + flags + spp_flag + " --seed " +
                                          std::to_string(seed++) + " --atlas " + dir.file("atlas.h5"));
         ASSERT_EQ(guided.w, unguided.w);
         const Verdict v = compare(guided, unguided, 1.0, z_crit);
@@ -250,16 +250,16 @@ void expect_nee_modes_agree(const std::string& scene_file, const std::string& fl
 TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) { expect_nee_modes_agree("guiding/layered_tiles_box.xml", ""); }
 
 // The same on glossy metal tiles (a rough conductor, a Ward without a diffuse part), where the cache
-// technique samples the map's product with the glossy lobe (render --product on, Guide::product): its
+// technique samples the map's product with the glossy lobe (render --set product=on, Guide::product): its
 // density p = d_k e_K / Z must be the one its samples come from, with MIS against NEE and the BSDF, and
 // in nee+cache (no BSDF technique) its support must cover the lobe's. Every vertex guided, so that the
 // product also serves the tiles' reflections of each other and of the walls. Checked to fail: a product
 // density 10 % too large (Guide::product_pdf scaled) is rejected in both modes (block |z| 6.4-6.8).
 TEST(GuidingUnbiased, ProductWithGlossyLobesKeepsTheImage) {
-    expect_nee_modes_agree("guiding/glossy_tiles_box.xml", "--product on --guide-vertices 0");
+    expect_nee_modes_agree("guiding/glossy_tiles_box.xml", "--set product=on --set guide-vertices=0");
 }
 
-// Caustic connections (render --connect on, tools/render/connections.h): every non-Dirac vertex joins a
+// Caustic connections (render --set connect=on, tools/render/connections.h): every non-Dirac vertex joins a
 // light vertex behind a specular chain, weighed by the power heuristic against the path tracer's own
 // emitter hits after such chains. The two weights must sum to one for every path, with the densities of
 // the guided mixture at both ends of the connecting edge, with the caustics seen directly light-traced
@@ -269,9 +269,9 @@ TEST(GuidingUnbiased, ProductWithGlossyLobesKeepsTheImage) {
 // tail. Checked to fail: the path tracer's weight left at 1 (those paths counted twice) is rejected
 // in every run (block |z| 10.7-15.3, image |z| 62-91).
 TEST(GuidingUnbiased, CausticConnectionsKeepTheImage) {
-    expect_nee_modes_agree("guiding/glass_lamp_box.xml", "--connect on --caustics on --guide-vertices 0 --rr-threshold 0.1",
+    expect_nee_modes_agree("guiding/glass_lamp_box.xml", "--set connect=on --set caustics=on --set guide-vertices=0 --set rr-threshold=0.1",
                            1024, 4096);
-    expect_nee_modes_agree("guiding/glass_lamp_box.xml", "--connect on", 1024, 4096);
+    expect_nee_modes_agree("guiding/glass_lamp_box.xml", "--set connect=on", 1024, 4096);
 }
 
 // The same through a thin pane (`thindielectric`) under the light instead of the slab
@@ -279,13 +279,13 @@ TEST(GuidingUnbiased, CausticConnectionsKeepTheImage) {
 // and photons, caches, the light tracer, its pools and the connections' weights all go through it.
 TEST(GuidingUnbiased, ThinPaneUnderTheLightKeepsTheImage) {
     expect_nee_modes_agree("guiding/thin_pane_box.xml",
-                           "--connect on --caustics on --guide-vertices 0 --rr-threshold 0.1", 1024, 4096);
+                           "--set connect=on --set caustics=on --set guide-vertices=0 --set rr-threshold=0.1", 1024, 4096);
 }
 
-// Light tracing of the caustics seen directly (render --caustics on, tools/render/caustics.h) splits path
+// Light tracing of the caustics seen directly (render --set caustics=on, tools/render/caustics.h) splits path
 // space with the path tracer: the path tracer drops the caustic class and the light tracer adds it, so
 // the image must still be the plain path tracer's, per pixel -- unguided and with the deep guided
-// setting (every vertex guided; the guiding pilot of --mode auto weighs the camera paths that remain).
+// setting (every vertex guided; the guiding pilot weighs the camera paths that remain).
 // On the caustic box the class is about a tenth of the image's brightness (measured: the light tracer's
 // mean over all pixels 0.0166 against the image's mean luminance 0.170), nearly all of it in the caustic
 // beside the sphere's foot: a light tracer that lost or doubled its part, or got its
@@ -328,9 +328,9 @@ TEST(CausticLightTracing, AgreesWithThePathTracerPerPixel) {
     ASSERT_LT(skipped, unguided.w * unguided.h / 2);
     const double z_crit = normal_critical(kAlpha / test_count(unguided, 2));
     const std::pair<const char*, std::string> runs[] = {
-        {"light-traced, unguided", "--caustics on --spp 1024 --seed 2"},
-        {"light-traced, every vertex guided", "--caustics on --spp 1024 --seed 3 --mode nee+bsdf+cache --atlas " +
-                                                  dir.file("atlas.h5") + " --guide-vertices 0 --rr-threshold 0.1"}};
+        {"light-traced, unguided", "--set caustics=on --spp 1024 --seed 2"},
+        {"light-traced, every vertex guided", "--set caustics=on --spp 1024 --seed 3 --set mode=nee+bsdf+cache --set pilot=off --atlas " +
+                                                  dir.file("atlas.h5") + " --set guide-vertices=0 --set rr-threshold=0.1"}};
     int i = 0;
     for (const auto& [label, args] : runs) {
         SCOPED_TRACE(label);
@@ -374,8 +374,8 @@ TEST(GuidingUnbiased, EnvmapSceneAgreesPerPixel) {
     const std::string scene = data_file("guiding/env_glass.xml");
     ASSERT_TRUE(build_atlases(scene, dir));
     expect_agrees_per_pixel(scene, dir, 512,
-                            {{"guided nee+bsdf+cache", "--mode nee+bsdf+cache --atlas " + dir.file("atlas.h5")},
-                             {"light-traced caustics", "--caustics on"}});
+                            {{"guided nee+bsdf+cache", "--set mode=nee+bsdf+cache --set pilot=off --atlas " + dir.file("atlas.h5")},
+                             {"light-traced caustics", "--set caustics=on"}});
 }
 
 // Caustic connections to vertices lit by an envmap through a specular chain: a greenhouse whose glass
@@ -391,7 +391,7 @@ TEST(GuidingUnbiased, EnvmapSceneAgreesPerPixel) {
 // 20-30, image |z| 86-190). A density of the opposite direction on one side is not: this sky is too
 // even for the weights' error to show.
 TEST(GuidingUnbiased, EnvmapConnectionsThroughAGlassRoof) {
-    expect_nee_modes_agree("guiding/env_greenhouse.xml", "--connect on --guide-vertices 0 --rr-threshold 0.1", 1024, 4096);
+    expect_nee_modes_agree("guiding/env_greenhouse.xml", "--set connect=on --set guide-vertices=0 --set rr-threshold=0.1", 1024, 4096);
 }
 
 // A textured scene (tests/data/guiding/textured_box.xml: bitmap and checkerboard reflectances, a
@@ -404,12 +404,12 @@ TEST(GuidingUnbiased, TexturedSceneAgreesPerPixel) {
     ASSERT_TRUE(build_atlases(scene, dir));
     const std::string atlas = " --atlas " + dir.file("atlas.h5");
     expect_agrees_per_pixel(scene, dir, 256,
-                            {{"guided nee+bsdf+cache", "--mode nee+bsdf+cache" + atlas},
-                             {"every vertex guided", "--mode nee+bsdf+cache --guide-vertices 0 --rr-threshold 0.1" + atlas}});
+                            {{"guided nee+bsdf+cache", "--set mode=nee+bsdf+cache --set pilot=off" + atlas},
+                             {"every vertex guided", "--set mode=nee+bsdf+cache --set pilot=off --set guide-vertices=0 --set rr-threshold=0.1" + atlas}});
 }
 
-// --mode auto weighs unguided sampling against guiding the first vertex and, unless the user fixed
-// --guide-vertices, --rr-depth or --rr-threshold, guiding every vertex with Russian roulette only below
+// The pilot (render --atlas) weighs unguided sampling against guiding the first vertex and, unless the user
+// set guide-vertices, rr-depth or rr-threshold, guiding every vertex with Russian roulette only below
 // throughput 0.1 (the default threshold is 0.3; the caustic box's rrDepth is the default, 5); the image
 // records every candidate the pilot measured and the setting it rendered with, and renders what it chose.
 TEST(GuidingAuto, WeighsEveryVertexOnlyWhereTheUserLeftTheChoice) {
@@ -418,7 +418,7 @@ TEST(GuidingAuto, WeighsEveryVertexOnlyWhereTheUserLeftTheChoice) {
     ASSERT_TRUE(build_atlases(scene, dir));
     auto metadata = [&](const std::string& name, const std::string& extra) {
         const std::string out = dir.file(name + ".exr");
-        const std::string cmd = tool("render") + " " + scene + " -q --spp 16 --mode auto --atlas " +
+        const std::string cmd = tool("render") + " " + scene + " -q --spp 16 --set pilot=on --atlas " +
                                 dir.file("atlas.h5") + " -o " + out + " " + extra;
         ToolResult r = run_command(cmd);
         EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
@@ -444,15 +444,15 @@ TEST(GuidingAuto, WeighsEveryVertexOnlyWhereTheUserLeftTheChoice) {
     EXPECT_TRUE(has(m["iris:caustics"], "light-traced, ")) << m["iris:caustics"];
     EXPECT_NE(m["iris:light_paths"], "0");
 
-    m = metadata("two", "--guide-vertices 2");
+    m = metadata("two", "--set guide-vertices=2");
     EXPECT_TRUE(has(m["iris:auto_guide"], "first 2 vertices, roulette below 0.3 from depth 5 ")) << m["iris:auto_guide"];
     EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
 
-    m = metadata("rr", "--rr-depth 7");
+    m = metadata("rr", "--set rr-depth=7");
     EXPECT_TRUE(has(m["iris:auto_guide"], "first vertex, roulette below 0.3 from depth 7 ")) << m["iris:auto_guide"];
     EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
 
-    m = metadata("threshold", "--rr-threshold 1");
+    m = metadata("threshold", "--set rr-threshold=1");
     EXPECT_TRUE(has(m["iris:auto_guide"], "first vertex, roulette below 1 from depth 5 ")) << m["iris:auto_guide"];
     EXPECT_FALSE(has(m["iris:auto_guide"], "every vertex")) << m["iris:auto_guide"];
 }
@@ -472,7 +472,7 @@ void expect_nee_agrees_with_bsdf_sampling(const std::string& scene_file, const s
     for (const std::string& variant : variants) {
         SCOPED_TRACE(variant);
         const Layers nee = render(scene, dir, "nee", "--spp 1024 --seed 1 " + variant);
-        const Layers bsdf = render(scene, dir, "bsdf", "--mode bsdf+cache --spp 4096 --seed 2 " + variant);
+        const Layers bsdf = render(scene, dir, "bsdf", "--set mode=bsdf+cache --set pilot=off --spp 4096 --seed 2 " + variant);
         ASSERT_EQ(nee.w, 16);
         ASSERT_EQ(bsdf.w, nee.w);
         const double z_crit = normal_critical(kAlpha / test_count(nee, 2 * int(variants.size())));

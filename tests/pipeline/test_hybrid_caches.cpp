@@ -1,4 +1,4 @@
-// Hybrid caches (render --learn): the caches' maps refit from photons plus the radiance the render's
+// Hybrid caches (render --set learn=on): the caches' maps refit from photons plus the radiance the render's
 // paths receive. Their unbiasedness is tested per pixel in test_guiding_unbiased.cpp; here, what the
 // refit must keep besides: the image is a function of the seed and the samples per pixel (not of the
 // thread count), the refit changes the maps (else the per-pixel test proves nothing about them), the
@@ -23,11 +23,11 @@ bool build_atlas(const std::string& scene, const TempDir& dir) {
         EXPECT_EQ(r.status, 0) << cmd << "\n" << r.output;
         return r.status == 0;
     };
-    return run(tool("trace-photons") + " " + scene + " -q --paths 20000 --seed 1 -o " + dir.file("photons.h5")) &&
-           run(tool("place-caches") + " " + scene + " -q --photons " + dir.file("photons.h5") + " --count 200 -o " +
+    return run(tool("trace-photons") + " " + scene + " -q --set photon-paths=20000 --seed 1 -o " + dir.file("photons.h5")) &&
+           run(tool("place-caches") + " " + scene + " -q --photon-map " + dir.file("photons.h5") + " --set cache-count=200 -o " +
                dir.file("caches.h5")) &&
-           run(tool("fill-caches") + " " + dir.file("caches.h5") + " -q --photons " + dir.file("photons.h5") +
-               " --k 200 -o " + dir.file("atlas.h5"));
+           run(tool("fill-caches") + " " + dir.file("caches.h5") + " -q --photon-map " + dir.file("photons.h5") +
+               " --set gather-count=200 -o " + dir.file("atlas.h5"));
 }
 
 Image render(const std::string& scene, const TempDir& dir, const std::string& name, const std::string& args) {
@@ -51,9 +51,9 @@ TEST(HybridCaches, ImageDependsOnSeedAndSppOnlyAndRefitChangesIt) {
     TempDir dir;
     const std::string scene = data_file("guiding/caustic_box.xml");
     ASSERT_TRUE(build_atlas(scene, dir));
-    const std::string args = "--spp 40 --seed 5 --guide-vertices 0 --atlas " + dir.file("atlas.h5");
-    const Image one = render(scene, dir, "t1", args + " --learn -t 1");
-    const Image two = render(scene, dir, "t2", args + " --learn -t 2 --write-atlas " + dir.file("refit.h5"));
+    const std::string args = "--spp 40 --seed 5 --set pilot=off --set guide-vertices=0 --atlas " + dir.file("atlas.h5");
+    const Image one = render(scene, dir, "t1", args + " --set learn=on -t 1");
+    const Image two = render(scene, dir, "t2", args + " --set learn=on -t 2 --write-atlas " + dir.file("refit.h5"));
     ASSERT_GT(one.width, 0);
     EXPECT_TRUE(same_pixels(one, two)) << "the refit maps depend on the thread count";
     EXPECT_NE(one.metadata.at("iris:hybrid_caches").find("6 refits"), std::string::npos)
@@ -71,7 +71,7 @@ TEST(HybridCaches, ImageDependsOnSeedAndSppOnlyAndRefitChangesIt) {
     EXPECT_GT(more, 0u);
     EXPECT_NE(refit.atlas.pdf, photon.atlas.pdf);
     EXPECT_EQ(refit.header.provenance.tool, "render");
-    const Image reused = render(scene, dir, "r", "--spp 4 --seed 5 --atlas " + dir.file("refit.h5"));
+    const Image reused = render(scene, dir, "r", "--spp 4 --seed 5 --set pilot=off --atlas " + dir.file("refit.h5"));
     EXPECT_GT(reused.width, 0);
 }
 
@@ -81,8 +81,8 @@ TEST(HybridCaches, FlagErrorsAreOneLineAndWriteNothing) {
     struct Case {
         std::string args, message;
     };
-    const Case cases[] = {{"--learn", "--learn needs --atlas"},
-                          {"--write-atlas " + dir.file("a.h5"), "--write-atlas needs --learn"}};
+    const Case cases[] = {{"--set learn=on", "setting learn=on needs --atlas"},
+                          {"--write-atlas " + dir.file("a.h5"), "--write-atlas needs the setting learn=on"}};
     for (const Case& k : cases) {
         const std::string out = dir.file("bad.exr");
         ToolResult r = run_command(tool("render") + " " + scene + " -q --spp 1 -o " + out + " " + k.args);

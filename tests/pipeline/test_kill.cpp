@@ -102,8 +102,8 @@ protected:
             ToolResult r = run_command(cmd);
             ASSERT_EQ(r.status, 0) << cmd << "\n" << r.output;
         };
-        run(tool("trace-photons") + " " + scene + " -q --paths 3000 -o " + dir_->file("photons.h5"));
-        run(tool("place-caches") + " " + scene + " --photons " + dir_->file("photons.h5") + " -q --count 40 -o " +
+        run(tool("trace-photons") + " " + scene + " -q --set photon-paths=3000 -o " + dir_->file("photons.h5"));
+        run(tool("place-caches") + " " + scene + " --photon-map " + dir_->file("photons.h5") + " -q --set cache-count=40 -o " +
             dir_->file("caches.h5"));
     }
     // Inputs big enough that place-caches and fill-caches run for seconds (their cost grows with
@@ -111,9 +111,9 @@ protected:
     static void make_big_inputs() {
         const std::string scene = data_file("guiding/caustic_box.xml");
         for (const std::string& cmd :
-             {tool("trace-photons") + " " + scene + " -q --paths 100000 -o " + dir_->file("many_photons.h5"),
-              tool("place-caches") + " " + scene + " --photons " + dir_->file("many_photons.h5") +
-                  " -q --count 5000 -o " + dir_->file("many_caches.h5")}) {
+             {tool("trace-photons") + " " + scene + " -q --set photon-paths=100000 -o " + dir_->file("many_photons.h5"),
+              tool("place-caches") + " " + scene + " --photon-map " + dir_->file("many_photons.h5") +
+                  " -q --set cache-count=5000 -o " + dir_->file("many_caches.h5")}) {
             ToolResult r = run_command(cmd);
             ASSERT_EQ(r.status, 0) << cmd << "\n" << r.output;
         }
@@ -124,14 +124,14 @@ protected:
     }
     static Stage stage(int i) {
         const std::string scene = data_file("guiding/caustic_box.xml");
-        const std::string photons = " --photons " + dir_->file("photons.h5");
+        const std::string photons = " --photon-map " + dir_->file("photons.h5");
         const Stage stages[] = {
-            {"trace-photons", scene + " --paths 200000000", scene + " --paths 2000", ".h5"},
-            {"place-caches", scene + " --photons " + dir_->file("many_photons.h5") + " --count 2000000",
-             scene + photons + " --count 20", ".h5"},
-            {"fill-caches", dir_->file("many_caches.h5") + " --photons " + dir_->file("many_photons.h5") +
-                                " --k 2000 --resolution 64",
-             dir_->file("caches.h5") + photons + " --k 30 --resolution 4", ".h5"},
+            {"trace-photons", scene + " --set photon-paths=200000000", scene + " --set photon-paths=2000", ".h5"},
+            {"place-caches", scene + " --photon-map " + dir_->file("many_photons.h5") + " --set cache-count=2000000",
+             scene + photons + " --set cache-count=20", ".h5"},
+            {"fill-caches", dir_->file("many_caches.h5") + " --photon-map " + dir_->file("many_photons.h5") +
+                                " --set gather-count=2000 --set map-resolution=64",
+             dir_->file("caches.h5") + photons + " --set gather-count=30 --set map-resolution=4", ".h5"},
             {"render", scene + " --spp 100000", scene + " --spp 2", ".exr"},
         };
         return stages[i];

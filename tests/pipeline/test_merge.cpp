@@ -60,8 +60,8 @@ void expect_same_metadata(const Image& merged, const Image& single) {
 TEST(Merge, GuidedRenderRangesComposeToOneRun) {
     TempDir dir;
     const std::string base = tool("render") + " " + data_file("guiding/caustic_box.xml") + " --atlas " +
-                             std::string(IRIS_SOURCE_DIR) + "/tests/golden/atlas.h5 --mode nee+bsdf+cache --spp 24 " +
-                             "--resolution 40x40 --seed 5 --variance --sample-count -q";
+                             std::string(IRIS_SOURCE_DIR) + "/tests/golden/atlas.h5 --set mode=nee+bsdf+cache --set pilot=off --spp 24 " +
+                             "--resolution 40x40 --seed 5 --variance --set samples-layer=on -q";
     run_ok(base + " -o " + dir.file("single.exr"));
     run_ok(base + " --sample-range 0:7 -o " + dir.file("a.exr"));
     run_ok(base + " --sample-range 7:16 -o " + dir.file("b.exr"));
@@ -81,11 +81,11 @@ TEST(Merge, GuidedRenderRangesComposeToOneRun) {
     EXPECT_EQ(r.status, 0) << r.output;
 }
 
-// The caustic light tracer (--caustics on): its splats' sums merge too.
+// The caustic light tracer (caustics=on): its splats' sums merge too.
 TEST(Merge, LightTracedRenderRangesComposeToOneRun) {
     TempDir dir;
     const std::string base = tool("render") + " " + data_file("guiding/caustic_box.xml") +
-                             " --caustics on --spp 12 --resolution 32x32 --seed 2 --variance -q";
+                             " --set caustics=on --spp 12 --resolution 32x32 --seed 2 --variance -q";
     run_ok(base + " -o " + dir.file("single.exr"));
     run_ok(base + " --sample-range 0:5 -o " + dir.file("a.exr"));
     run_ok(base + " --sample-range 5:12 -o " + dir.file("b.exr"));
@@ -101,7 +101,7 @@ TEST(Merge, LightTracedRenderRangesComposeToOneRun) {
 TEST(Merge, PhotonRangesComposeToOneRunBitForBit) {
     TempDir dir;
     const std::string scene = data_file("guiding/caustic_box.xml");
-    const std::string base = tool("trace-photons") + " " + scene + " --paths 5000 --max-depth 6 --seed 11 -q";
+    const std::string base = tool("trace-photons") + " " + scene + " --set photon-paths=5000 --set photon-depth=6 --seed 11 -q";
     run_ok(base + " -o " + dir.file("single.h5"));
     run_ok(base + " --path-range 0:1500 -o " + dir.file("a.h5"));
     run_ok(base + " --path-range 1500:1501 -t 1 -o " + dir.file("b.h5"));
@@ -127,6 +127,6 @@ TEST(Merge, PhotonRangesComposeToOneRunBitForBit) {
     for (const char* key : {"paths", "max_depth", "rr_depth", "cutoff", "caustic_share", "min_caustic_share"})
         EXPECT_EQ(mp.at(key), sp.at(key)) << key;
     EXPECT_EQ(mp.count("path_total"), 0u);
-    run_ok(tool("place-caches") + " " + scene + " --photons " + dir.file("merged.h5") + " -o " + dir.file("caches.h5") +
-           " --count 16 -q");
+    run_ok(tool("place-caches") + " " + scene + " --photon-map " + dir.file("merged.h5") + " -o " + dir.file("caches.h5") +
+           " --set cache-count=16 -q");
 }

@@ -106,13 +106,13 @@ TEST(RenderCli, SameSeedSameImageForAnyThreadCount) {
 }
 
 // The caustic light tracer's splats are summed in path order whatever the threads (caustics.h): the
-// caustic box (a glass sphere, a Gaussian-free box filter) with --caustics on gives identical images.
+// caustic box (a glass sphere, a Gaussian-free box filter) with caustics=on gives identical images.
 TEST(RenderCli, LightTracedCausticsAreTheSameForAnyThreadCount) {
     TempDir dir;
     const std::string scene = data_file("guiding/caustic_box.xml");
-    auto a = run_command(tool("render") + " " + scene + " -o " + dir.file("a.exr") + " -q --spp 8 -t 1 --seed 9 --caustics on");
+    auto a = run_command(tool("render") + " " + scene + " -o " + dir.file("a.exr") + " -q --spp 8 -t 1 --seed 9 --set caustics=on");
     auto b = run_command(tool("render") + " " + scene + " -o " + dir.file("b.exr") +
-                         " -q --spp 8 -t 2 --seed 9 --caustics on --variance");
+                         " -q --spp 8 -t 2 --seed 9 --set caustics=on --variance");
     ASSERT_EQ(a.status, 0) << a.output;
     ASSERT_EQ(b.status, 0) << b.output;
     Image ia = read_exr(dir.file("a.exr")), ib = read_exr(dir.file("b.exr"));
@@ -122,7 +122,7 @@ TEST(RenderCli, LightTracedCausticsAreTheSameForAnyThreadCount) {
     EXPECT_EQ(ib.metadata.at("iris:caustics"), "light-traced, 1024 light paths per sample pass");
     // Where no area light can reach a surface through a Dirac bounce, nothing is traced.
     auto c = run_command(tool("render") + " " + data_file("render/furnace_box.xml") + " -o " + dir.file("c.exr") +
-                         " -q --spp 2 --caustics on");
+                         " -q --spp 2 --set caustics=on");
     ASSERT_EQ(c.status, 0) << c.output;
     EXPECT_EQ(read_exr(dir.file("c.exr")).metadata.at("iris:light_paths"), "0");
 }
@@ -131,7 +131,7 @@ TEST(RenderCli, TimeBudgetAndLayers) {
     TempDir dir;
     std::string out = dir.file("t.exr");
     auto r = run_command(tool("render") + " " + data_file("render/furnace_box.xml") + " -o " + out +
-                         " -q --time 0.5 --resolution 24x12 --sample-count --variance");
+                         " -q --time 0.5 --resolution 24x12 --set samples-layer=on --variance");
     ASSERT_EQ(r.status, 0) << r.output;
     Image img = read_exr(out);
     EXPECT_EQ(img.width, 24);

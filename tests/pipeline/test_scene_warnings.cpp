@@ -57,7 +57,8 @@ TEST(SceneWarnings, FullGuidedPipelinePrintsEachOnce) {
     const auto r = run_command("make --no-print-directory -f " + std::string(IRIS_SOURCE_DIR) +
                                "/pipelines/guided.mk BIN=" + std::string(IRIS_BIN_DIR) + " SCENE=" + scene +
                                " OUT=" + dir.file("out") + " REF_DIR=" + dir.file("ref") +
-                               " PATHS=2000 COUNT=64 K=64 SPP=2 REF_SPP=4 MIN_CAUSTIC=0 THREADS=2 compare");
+                               " PHOTONS_SET='photon-paths=2000 min-caustic-share=0' CACHES_SET='cache-count=64 min-caustic-share=0'"
+                               " ATLAS_SET=gather-count=64 SPP=2 REF_SPP=4 THREADS=2 compare");
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_EQ(count_lines_starting(r.output, "warning: "), 2) << r.output;
     EXPECT_NE(r.output.find("never_used"), std::string::npos) << r.output;

@@ -22,7 +22,8 @@ TEST(WindowRoom, GuidedPipelineCompareRuns) {
     const auto r = run_command("make --no-print-directory -f " + src + "/pipelines/guided.mk BIN=" +
                                std::string(IRIS_BIN_DIR) + " SCENE=" + src + "/scenes/window_room/window_room.xml" +
                                " OUT=" + dir.file("out") + " REF_DIR=" + dir.file("ref") +
-                               " PATHS=4000 COUNT=64 K=64 SPP=2 REF_SPP=2 MIN_CAUSTIC=0 THREADS=2 QUIET= compare");
+                               " PHOTONS_SET='photon-paths=4000 min-caustic-share=0' CACHES_SET='cache-count=64 min-caustic-share=0'"
+                               " ATLAS_SET=gather-count=64 SPP=2 REF_SPP=2 THREADS=2 QUIET= compare");
     ASSERT_EQ(r.status, 0) << r.output;
     // The scene uses nothing iris ignores: a warning would mean a parameter of it is dropped.
     EXPECT_EQ(r.output.find("warning: "), std::string::npos) << r.output;

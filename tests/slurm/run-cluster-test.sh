@@ -93,8 +93,9 @@ echo "slurm-cluster-test: cluster up ($cpus CPUs, $mem MB, ports $ctl_port/$d_po
 
 # The pipeline, small: the caustic box at 32x32, 16 spp in 2 render tasks (task 1 killed once).
 scene="$root/tests/data/guiding/caustic_box.xml"
-params=(SCENE="$scene" BIN="$BIN" SEED=7 PATHS=4000 PHOTON_TASKS=2 PHOTON_DEPTH=6 COUNT=64 STRIDE=8 K=64 RES=8
-        MAX_RADIUS=0.15 SPP=16 MODE=nee+bsdf+cache CAUSTICS=off CPUS=1 RETRIES=1 RENDER_FLAGS="--resolution 32x32")
+params=(SCENE="$scene" BIN="$BIN" SEED=7 PHOTONS_SET="photon-paths=4000 photon-depth=6" PHOTON_TASKS=2
+        CACHES_SET="cache-count=64" ATLAS_SET="gather-count=64 map-resolution=8 max-radius=0.15"
+        SPP=16 CPUS=1 RETRIES=1 RESOLUTION=32x32)
 start=$(date +%s.%N)
 IRIS_SLURM_FAULT=render:1 WAIT=1 "$root/pipelines/slurm/iris-slurm.sh" "${params[@]}" OUT="$T/out" TASKS=2 ||
   fail "the pipeline did not finish"
@@ -104,12 +105,11 @@ grep -q "render task 1: exit status 137" "$T/out/logs/render-1.log" || fail "the
 # The same stages in one process each, and the comparison.
 S="$T/single"; mkdir -p "$S"
 c=(--seed 7 -q)
-"$BIN/trace-photons" "$scene" -o "$S/photons.h5" --paths 4000 --max-depth 6 --min-caustic-share 0.005 "${c[@]}" &&
-"$BIN/place-caches" "$scene" --photons "$S/photons.h5" -o "$S/caches.h5" --count 64 --camera-stride 8 \
-  --min-caustic-share 0.005 "${c[@]}" &&
-"$BIN/fill-caches" "$S/caches.h5" --photons "$S/photons.h5" -o "$S/atlas.h5" --k 64 --resolution 8 --filter-sigma 0.75 \
-  --floor 0.1 --max-radius 0.15 "${c[@]}" &&
-"$BIN/render" "$scene" --atlas "$S/atlas.h5" --mode nee+bsdf+cache --bsdf-fraction auto --caustics off --spp 16 \
+"$BIN/trace-photons" "$scene" -o "$S/photons.h5" --set photon-paths=4000 --set photon-depth=6 "${c[@]}" &&
+"$BIN/place-caches" "$scene" --photon-map "$S/photons.h5" -o "$S/caches.h5" --set cache-count=64 --resolution 32x32 "${c[@]}" &&
+"$BIN/fill-caches" "$S/caches.h5" --photon-map "$S/photons.h5" -o "$S/atlas.h5" --set gather-count=64 --set map-resolution=8 \
+  --set max-radius=0.15 "${c[@]}" &&
+"$BIN/render" "$scene" --atlas "$S/atlas.h5" --set pilot=off --spp 16 \
   --variance --resolution 32x32 -o "$S/guided.exr" "${c[@]}" || fail "the single-process pipeline failed"
 for d in position direction normal power; do
   cmp -s <(h5dump -d "$d" "$S/photons.h5" | tail -n +3) <(h5dump -d "$d" "$T/out/photons.h5" | tail -n +3) ||
@@ -125,9 +125,9 @@ if out=$("$BIN/merge-images" "$T/out/parts/render-0.exr" -o "$T/partial.exr" 2>&
 if [[ ${BENCH:-0} == 1 ]]; then
   # Overhead: a 4-task render array (1 CPU per task, 2 at a time on the 2 CPUs) against one process
   # with 2 threads, same image; the stages before it are shared (same atlas).
-  bparams=("${params[@]}" SPP=${BENCH_SPP:-256} RENDER_FLAGS="--resolution ${BENCH_RES:-128x128}")
+  bparams=("${params[@]}" SPP=${BENCH_SPP:-256} RESOLUTION="${BENCH_RES:-128x128}")
   t0=$(date +%s.%N)
-  "$BIN/render" "$scene" --atlas "$S/atlas.h5" --mode nee+bsdf+cache --spp "${BENCH_SPP:-256}" --variance \
+  "$BIN/render" "$scene" --atlas "$S/atlas.h5" --set pilot=off --spp "${BENCH_SPP:-256}" --variance \
     --resolution "${BENCH_RES:-128x128}" -t 2 -o "$S/bench.exr" "${c[@]}"
   t1=$(date +%s.%N)
   echo "slurm-cluster-test: bench: one process, -t 2: $(echo "$t1 - $t0" | bc) s"

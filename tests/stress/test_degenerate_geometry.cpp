@@ -114,7 +114,7 @@ TEST(DegenerateGeometry, PhotonTracingAndGuidedRenderStayFinite) {
     TempDir dir;
     const std::string scene = write_scene(dir, "dirty_", true);
     const std::string ph = dir.file("p.h5"), ca = dir.file("c.h5"), at = dir.file("a.h5");
-    ToolResult r = run_command(tool("trace-photons") + " " + scene + " --paths 20000 --seed 3 -q -t 2 -o " + ph);
+    ToolResult r = run_command(tool("trace-photons") + " " + scene + " --set photon-paths=20000 --seed 3 -q -t 2 -o " + ph);
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_EQ(r.output.find("NaN"), std::string::npos) << r.output;
     const PhotonMapFile pf = read_photon_map(ph);
@@ -125,11 +125,11 @@ TEST(DegenerateGeometry, PhotonTracingAndGuidedRenderStayFinite) {
         const RGB& p = pf.photons.power[i];
         ASSERT_TRUE(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]) && p[0] >= 0);
     }
-    r = run_command(tool("place-caches") + " " + scene + " --photons " + ph + " -o " + ca + " --count 200 --camera-stride 4 -q -t 2");
+    r = run_command(tool("place-caches") + " " + scene + " --photon-map " + ph + " -o " + ca + " --set cache-count=200 --set camera-stride=4 -q -t 2");
     ASSERT_EQ(r.status, 0) << r.output;
-    r = run_command(tool("fill-caches") + " " + ca + " --photons " + ph + " -o " + at + " --k 100 --resolution 8 -q -t 2");
+    r = run_command(tool("fill-caches") + " " + ca + " --photon-map " + ph + " -o " + at + " --set gather-count=100 --set map-resolution=8 -q -t 2");
     ASSERT_EQ(r.status, 0) << r.output;
-    r = run_command(tool("render") + " " + scene + " --atlas " + at + " -o " + dir.file("g.exr") + " --variance -q -t 2 --spp 16");
+    r = run_command(tool("render") + " " + scene + " --set pilot=off --atlas " + at + " -o " + dir.file("g.exr") + " --variance -q -t 2 --spp 16");
     ASSERT_EQ(r.status, 0) << r.output;
     checked_stats(read_exr(dir.file("g.exr")), "guided");
 }

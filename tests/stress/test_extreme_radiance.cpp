@@ -152,7 +152,7 @@ TEST(ExtremeRadiance, ZeroRadianceGivesBlackImageAndClearPhotonError) {
     for (size_t c = 0; c < img.data.size(); ++c)
         for (float v : img.data[c]) ASSERT_EQ(v, 0.0f) << img.channels[c];
     const std::string out = dir.file("photons.h5");
-    ToolResult r = run_command(tool("trace-photons") + " " + scene + " -D L=0 --paths 1000 -q -o " + out);
+    ToolResult r = run_command(tool("trace-photons") + " " + scene + " -D L=0 --set photon-paths=1000 -q -o " + out);
     EXPECT_NE(r.status, 0) << r.output;
     EXPECT_EQ(r.output.rfind("trace-photons: error: ", 0), 0u) << r.output;
     EXPECT_NE(r.output.find("no light with power"), std::string::npos) << r.output;
@@ -181,7 +181,7 @@ TEST(ExtremeRadiance, MixedExtremeLightsStayFinite) {
     ASSERT_GT(img.width, 0);
     expect_clean(img, "mixed");
     const std::string ph = dir.file("p.h5");
-    ToolResult r = run_command(tool("trace-photons") + " " + scene + " -D L=1e20 --paths 5000 -q -t 2 -o " + ph);
+    ToolResult r = run_command(tool("trace-photons") + " " + scene + " -D L=1e20 --set photon-paths=5000 -q -t 2 -o " + ph);
     ASSERT_EQ(r.status, 0) << r.output;
     const PhotonMap map = read_photon_map(ph).photons;
     EXPECT_GT(map.size(), 1000u);
@@ -199,7 +199,7 @@ TEST(ExtremeRadiance, GuidedPipelineAtExtremeRadiance) {
         char def[64];
         std::snprintf(def, sizeof def, " -D L=%g", r);
         const std::string ph = dir.file("p.h5"), ca = dir.file("c.h5"), at = dir.file("a.h5");
-        ToolResult t = run_command(tool("trace-photons") + " " + scene + def + " --paths 8000 --seed 2 -q -t 2 -o " + ph);
+        ToolResult t = run_command(tool("trace-photons") + " " + scene + def + " --set photon-paths=8000 --seed 2 -q -t 2 -o " + ph);
         ASSERT_EQ(t.status, 0) << def << t.output;
         const PhotonMap map = read_photon_map(ph).photons;
         ASSERT_GT(map.size(), 1000u);
@@ -210,14 +210,14 @@ TEST(ExtremeRadiance, GuidedPipelineAtExtremeRadiance) {
         }
         if (r == 1.0) total_one = total;
         EXPECT_NEAR(total / r, total_one, 1e-4 * total_one) << def << ": photon power must scale with the radiance";
-        t = run_command(tool("place-caches") + " " + scene + def + " --photons " + ph + " -o " + ca +
-                        " --count 100 --camera-stride 4 --seed 2 -q -t 2");
+        t = run_command(tool("place-caches") + " " + scene + def + " --photon-map " + ph + " -o " + ca +
+                        " --set cache-count=100 --set camera-stride=4 --seed 2 -q -t 2");
         ASSERT_EQ(t.status, 0) << def << t.output;
-        t = run_command(tool("fill-caches") + " " + ca + " --photons " + ph + " -o " + at + " --k 64 --resolution 8 -q -t 2");
+        t = run_command(tool("fill-caches") + " " + ca + " --photon-map " + ph + " -o " + at + " --set gather-count=64 --set map-resolution=8 -q -t 2");
         ASSERT_EQ(t.status, 0) << def << t.output;
         const CacheAtlas atlas = read_cache_atlas(at).atlas;
         EXPECT_EQ(validate_cache_atlas(atlas), "") << def;
-        Image img = render(scene, std::string("--spp 16 --atlas ") + at + def, dir.file("g.exr"));
+        Image img = render(scene, std::string("--spp 16 --set pilot=off --atlas ") + at + def, dir.file("g.exr"));
         ASSERT_GT(img.width, 0) << def;
         expect_clean(img, std::string("guided") + def);
     }

@@ -181,12 +181,12 @@ TEST(ShadingNormals, PhotonsFromPerturbedNormalsAreFinite) {
     TempDir dir;
     const std::string scene = furnace_scene(dir, "tilt89", 89);
     const std::string ph = dir.file("p.h5"), ca = dir.file("c.h5"), at = dir.file("a.h5");
-    ToolResult r = run_command(tool("trace-photons") + " " + scene + " --paths 5000 -q -t 2 -o " + ph);
+    ToolResult r = run_command(tool("trace-photons") + " " + scene + " --set photon-paths=5000 -q -t 2 -o " + ph);
     ASSERT_EQ(r.status, 0) << r.output;
     EXPECT_EQ(r.output.find("NaN"), std::string::npos) << r.output;
-    r = run_command(tool("place-caches") + " " + scene + " --photons " + ph + " -o " + ca + " --count 100 --camera-stride 4 -q -t 2");
+    r = run_command(tool("place-caches") + " " + scene + " --photon-map " + ph + " -o " + ca + " --set cache-count=100 --set camera-stride=4 -q -t 2");
     ASSERT_EQ(r.status, 0) << r.output;
-    r = run_command(tool("fill-caches") + " " + ca + " --photons " + ph + " -o " + at + " --k 64 --resolution 8 -q -t 2");
+    r = run_command(tool("fill-caches") + " " + ca + " --photon-map " + ph + " -o " + at + " --set gather-count=64 --set map-resolution=8 -q -t 2");
     ASSERT_EQ(r.status, 0) << r.output;
-    render_stats(scene, "--spp 16 --atlas " + at, dir, "guided, tilt 89");
+    render_stats(scene, "--spp 16 --set pilot=off --atlas " + at, dir, "guided, tilt 89");
 }

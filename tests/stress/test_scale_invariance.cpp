@@ -160,13 +160,13 @@ TEST(ScaleInvariance, GuidedPipelineIndependentOfScaleAndPosition) {
         const std::string scene = write_scene(dir, tag, v.s, v.shift);
         const std::string ph = dir.file(tag + "photons.h5"), ca = dir.file(tag + "caches.h5"),
                           at = dir.file(tag + "atlas.h5");
-        ToolResult r = run_command(tool("trace-photons") + " " + scene + " -o " + ph + " --paths 20000 --seed 3 -q -t 2");
+        ToolResult r = run_command(tool("trace-photons") + " " + scene + " -o " + ph + " --set photon-paths=20000 --seed 3 -q -t 2");
         ASSERT_EQ(r.status, 0) << v.name << ": " << r.output;
-        r = run_command(tool("place-caches") + " " + scene + " --photons " + ph + " -o " + ca +
-                        " --count 300 --camera-stride 4 --resolution 24x24 --seed 3 -q -t 2");
+        r = run_command(tool("place-caches") + " " + scene + " --photon-map " + ph + " -o " + ca +
+                        " --set cache-count=300 --set camera-stride=4 --resolution 24x24 --seed 3 -q -t 2");
         ASSERT_EQ(r.status, 0) << v.name << ": " << r.output;
-        r = run_command(tool("fill-caches") + " " + ca + " --photons " + ph + " -o " + at +
-                        " --k 100 --resolution 8 --min-photons 8 -q -t 2");
+        r = run_command(tool("fill-caches") + " " + ca + " --photon-map " + ph + " -o " + at +
+                        " --set gather-count=100 --set map-resolution=8 --set min-photons=8 -q -t 2");
         ASSERT_EQ(r.status, 0) << v.name << ": " << r.output;
         // The caches must actually guide: most of them usable (a radius that is absolute would leave
         // them empty at s = 1e-3 or give every one the same far-away photons at s = 1e4).
@@ -175,7 +175,7 @@ TEST(ScaleInvariance, GuidedPipelineIndependentOfScaleAndPosition) {
         size_t usable = 0;
         for (uint8_t u : atlas.usable) usable += u;
         EXPECT_GT(usable, atlas.size() * 3 / 4) << v.name << ": " << usable << " of " << atlas.size() << " caches usable";
-        Image img = run_render(scene + common + " --atlas " + at, dir.file(tag + ".exr"));
+        Image img = run_render(scene + common + " --set pilot=off --atlas " + at, dir.file(tag + ".exr"));
         ASSERT_GT(img.width, 0) << v.name;
         expect_no_nonfinite(img, std::string("guided ") + v.name);
         expect_same_mean(image_stats(img), ref, std::string("guided ") + v.name);

@@ -36,7 +36,7 @@ TEST(PilotChoice, FewerGuidedVerticesNeedTheShallowMargin) {
 }
 
 TEST(PilotChoice, TheMarginDoesNotApplyWhenAllGuideAsManyVertices) {
-    // The user fixed --guide-vertices: one guided setting, with and without connections.
+    // The user set guide-vertices: one guided setting, with and without connections.
     EXPECT_EQ(pick_candidate({1.0, 3.0, 2.9}, {kEvery, 1, 1}), 1u);
     EXPECT_EQ(pick_candidate({1.0, 3.0, 3.1}, {kEvery, 1, 1}), 2u);
 }

@@ -1,4 +1,4 @@
-// place-caches --reach-paths: photon caches go only where camera paths reach. On scenes/window_room
+// place-caches reach-paths: photon caches go only where camera paths reach. On scenes/window_room
 // (an envmap sun through a window; most photons land on the room's outside, where no camera path goes)
 // the old placement put about half the caches outside the room; with reach paths none should be.
 #include <gtest/gtest.h>

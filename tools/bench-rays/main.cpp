@@ -4,7 +4,7 @@
 // parallel with TBB. Only the casting is timed: no shading, no sampling, no film.
 #include <CLI/CLI.hpp>
 
-#include "libcommon/tool_util.h"
+#include "tools/common/tool_util.h"
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 

@@ -3,7 +3,7 @@
 // (0 = within thresholds, 2 = a threshold exceeded, 1 = error), for tests, pipelines and benchmarks.
 #include <CLI/CLI.hpp>
 
-#include "libcommon/tool_util.h"
+#include "tools/common/tool_util.h"
 
 #include <cstdio>
 #include <string>

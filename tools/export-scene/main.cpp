@@ -13,7 +13,7 @@
 #include "formats/atomic_file.h"
 #include "formats/scene_xml.h"
 #include "libcommon/camera.h"
-#include "libcommon/tool_util.h"
+#include "tools/common/tool_util.h"
 
 namespace {
 

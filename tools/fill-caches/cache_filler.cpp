@@ -18,12 +18,12 @@
 namespace iris {
 
 void check_fill_options(const FillOptions& o) {
-    if (o.k == 0) throw std::runtime_error("--k must be positive");
+    if (o.k == 0) throw std::runtime_error("gather-count must be positive");
     if (o.resolution < 1 || o.resolution > kCacheAtlasMaxResolution)
-        throw std::runtime_error("--resolution must be in [1, " + std::to_string(kCacheAtlasMaxResolution) + "]");
-    if (!(o.max_radius > 0)) throw std::runtime_error("--max-radius must be positive");
-    if (!(o.filter_sigma >= 0)) throw std::runtime_error("--filter-sigma must be >= 0");
-    if (!(o.floor > 0 && o.floor <= 1)) throw std::runtime_error("--floor must be in (0, 1]");
+        throw std::runtime_error("map-resolution must be in [1, " + std::to_string(kCacheAtlasMaxResolution) + "]");
+    if (!(o.max_radius > 0)) throw std::runtime_error("max-radius must be positive");
+    if (!(o.filter_sigma >= 0)) throw std::runtime_error("filter-sigma must be >= 0");
+    if (!(o.floor > 0 && o.floor <= 1)) throw std::runtime_error("floor must be in (0, 1]");
     // The floor's texel probability f/N must be representable in the float CDF: near 1 its spacing is
     // 2^-24, and texels whose probability falls below that get an empty CDF interval, i.e. density 0 --
     // breaking "the density is >= f/(4 pi) everywhere" (formats/README.md) and, in nee+cache mode
@@ -32,7 +32,7 @@ void check_fill_options(const FillOptions& o) {
     const double min_floor = double(o.resolution) * double(o.resolution) * 0x1p-23;
     if (o.floor < min_floor) {
         char msg[160];
-        std::snprintf(msg, sizeof msg, "--floor %g is below what a float CDF of %dx%d texels can hold (at least %.3g)",
+        std::snprintf(msg, sizeof msg, "floor %g is below what a float CDF of %dx%d texels can hold (at least %.3g)",
                       o.floor, o.resolution, o.resolution, min_floor);
         throw std::runtime_error(msg);
     }

@@ -32,7 +32,7 @@ struct FillStats {
     double mean_photons = 0, mean_radius = 0, seconds = 0;
 };
 
-// Throws std::runtime_error naming the flag of the first option out of range (fill_caches checks too;
+// Throws std::runtime_error naming the setting of the first option out of range (fill_caches checks too;
 // the tool calls it before reading its inputs).
 void check_fill_options(const FillOptions& opts);
 

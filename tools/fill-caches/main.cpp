@@ -9,7 +9,8 @@
 #include "formats/cache_points.h"
 #include "formats/hdf5_util.h"
 #include "formats/photon_map.h"
-#include "libcommon/tool_util.h"
+#include "tools/common/settings.h"
+#include "tools/common/tool_util.h"
 #include "tools/fill-caches/cache_filler.h"
 
 int main(int argc, char** argv) {
@@ -18,22 +19,25 @@ int main(int argc, char** argv) {
     CLI::App app{"fill-caches: fill each cache's equal-area directional map from its nearest photons"};
     app.set_version_flag("--version", std::string("iris fill-caches ") + IRIS_VERSION);
     app.add_option("caches", caches_path, "Cache positions from place-caches")->required();
-    app.add_option("--photons", photons_path, "Photon map from trace-photons")->required();
+    app.add_option("--photon-map", photons_path, "Photon map from trace-photons")->required();
     app.add_option("-o,--output", output, "Cache atlas to write (.h5)")->required();
-    app.add_option("--k", opt.k, "Photons gathered per cache");
-    app.add_option("--resolution", opt.resolution, "Map resolution R (R x R texels over the sphere)");
-    app.add_option("--max-radius", opt.max_radius, "Gather radius limit, fraction of the scene's diagonal");
-    app.add_option("--min-photons", opt.min_photons, "Fewer photons than this: the cache is not used");
-    app.add_option("--filter-sigma", opt.filter_sigma, "Gaussian filter width in texels (0 = none)");
-    app.add_option("--floor", opt.floor, "Weight of the uniform density mixed into every map (0..1]");
-    app.add_flag("--direct", opt.direct,
-                 "Also count photons straight from the lights (for renders without NEE, e.g. --mode bsdf+cache)");
+    std::vector<std::string> assignments;
+    iris::add_settings_options(app, iris::kFillCaches, "fill-caches", &assignments);
     app.add_option("-t,--threads", opt.threads, "Worker threads (default: all cores)");
     uint64_t seed = 0;
     app.add_option("--seed", seed, "Accepted for uniformity with the other tools (filling is not random)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     if (int rc = iris::parse_command_line(app, argc, argv, "fill-caches"); rc >= 0) return rc;
     try {
+        iris::Settings settings(iris::kFillCaches, "fill-caches");
+        settings.set_all(assignments);
+        opt.k = uint32_t(settings.integer("gather-count"));
+        opt.resolution = int(settings.integer("map-resolution"));
+        opt.max_radius = settings.number("max-radius");
+        opt.min_photons = uint32_t(settings.integer("min-photons"));
+        opt.filter_sigma = settings.number("filter-sigma");
+        opt.floor = settings.number("floor");
+        opt.direct = settings.on("direct-photons");
         iris::check_fill_options(opt);
         if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
         iris::check_output_path(output);
@@ -75,6 +79,7 @@ int main(int argc, char** argv) {
                            {"usable", double(stats.usable)},
                            {"mean_photons", stats.mean_photons},
                            {"seconds", stats.seconds}};
+        settings.add_to_parameters(&prov.parameters);
         iris::write_cache_atlas(output, atlas, cf.header.scene_fingerprint, prov);
         if (!opt.quiet)
             std::fprintf(stderr,

@@ -14,7 +14,7 @@
 #include "formats/photon_map.h"
 #include "formats/png.h"
 #include "formats/scene_xml.h"
-#include "libcommon/tool_util.h"
+#include "tools/common/tool_util.h"
 #include "tools/inspect-caches/inspect.h"
 
 int main(int argc, char** argv) {

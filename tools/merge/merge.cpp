@@ -5,8 +5,9 @@
 #include <cstdlib>
 
 #include "libcommon/film.h"
-#include "libcommon/tool_util.h"
 #include "formats/film_parts.h"
+#include "tools/common/settings.h"
+#include "tools/common/tool_util.h"
 
 namespace iris {
 
@@ -100,12 +101,16 @@ Image merge_image_parts(const std::vector<std::string>& paths, const std::string
             if (md["iris:scene_fingerprint"] != ref.metadata.at("iris:scene_fingerprint"))
                 throw MergeError(path + ": rendered from another scene than " + p0 + " (scene fingerprint " +
                                  md["iris:scene_fingerprint"] + ", not " + ref.metadata.at("iris:scene_fingerprint") + ")");
-            for (const char* key : {"iris:settings", "iris:variance_layer", "iris:samples_layer", "iris:spp_total"})
+            // The settings record (render's --set, resolved): the first setting that differs by name.
+            const std::string diff = settings_difference(ref.metadata.at("iris:settings"), md["iris:settings"]);
+            if (!diff.empty()) throw MergeError(path + ": rendered with other settings than " + p0 + ": " + diff);
+            for (const char* key : {"iris:sample_settings", "iris:variance_layer", "iris:samples_layer", "iris:spp_total"})
                 if (md[key] != ref.metadata.at(key))
                     throw MergeError(path + ": rendered with other settings than " + p0 + ": " +
                                      first_difference(ref.metadata.at(key), md[key]));
         } else {
-            for (const char* key : {"iris:scene_fingerprint", "iris:settings", "iris:variance_layer", "iris:samples_layer",
+            for (const char* key : {"iris:scene_fingerprint", "iris:settings", "iris:sample_settings", "iris:variance_layer",
+                                    "iris:samples_layer",
                                     "iris:spp_total", "iris:light_paths_per_sample"})
                 if (!md.count(key)) throw MergeError(path + ": metadata '" + key + "' missing");
         }

@@ -4,7 +4,7 @@
 
 #include <cstdio>
 
-#include "libcommon/tool_util.h"
+#include "tools/common/tool_util.h"
 #include "tools/merge/merge.h"
 
 int main(int argc, char** argv) {

@@ -107,8 +107,8 @@ CachePoints place_caches(const Scene& scene, const PhotonMap& photons, const Pla
                          PlacementStats* stats) {
     const std::vector<Vec3>& pp = photons.position;
     const std::vector<Vec3>& pn = photons.normal;
-    if (o.count == 0) throw std::runtime_error("--count must be positive");
-    if (o.camera_stride < 0) throw std::runtime_error("--camera-stride must be >= 0");
+    if (o.count == 0) throw std::runtime_error("cache-count must be positive");
+    if (o.camera_stride < 0) throw std::runtime_error("camera-stride must be >= 0");
     if (pp.size() != pn.size()) throw std::runtime_error("photon positions and normals differ in length");
     auto t0 = std::chrono::steady_clock::now();
     int threads = o.threads > 0 ? o.threads : int(std::max(1u, std::thread::hardware_concurrency()));
@@ -123,7 +123,7 @@ CachePoints place_caches(const Scene& scene, const PhotonMap& photons, const Pla
         caches.normal.push_back(n);
         caches.origin.push_back(origin);
     };
-    if (o.reach_paths < 0) throw std::runtime_error("--reach-paths must be >= 0");
+    if (o.reach_paths < 0) throw std::runtime_error("reach-paths must be >= 0");
     // Reach grid: cells of 1/64 of the scene's diagonal (a few cm to dm on the seed scenes), each marked
     // cell dilated by one in every direction, so the sparse camera paths cover the surfaces between them.
     const Vec3 lo = scene.bounds_min;

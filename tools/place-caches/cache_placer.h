@@ -1,6 +1,6 @@
 // The place-caches stage: where the radiance caches go. One cache per camera block (a primary ray that
 // hits a specular surface follows the specular chain to the first non-specular hit), the rest spread
-// evenly over the surfaces the photons reached (with --reach-paths: only those camera paths reach). No cache
+// evenly over the surfaces the photons reached (with reach-paths: only those camera paths reach). No cache
 // lands on a purely specular surface.
 #pragma once
 

@@ -8,7 +8,8 @@
 #include "formats/hdf5_util.h"
 #include "formats/photon_map.h"
 #include "formats/scene_xml.h"
-#include "libcommon/tool_util.h"
+#include "tools/common/settings.h"
+#include "tools/common/tool_util.h"
 #include "tools/place-caches/cache_placer.h"
 
 int main(int argc, char** argv) {
@@ -18,33 +19,26 @@ int main(int argc, char** argv) {
     CLI::App app{"place-caches: place radiance caches at camera-visible surfaces and over the photon map"};
     app.set_version_flag("--version", std::string("iris place-caches ") + IRIS_VERSION);
     app.add_option("scene", scene_path, "Scene file (Mitsuba 0.5 XML)")->required();
-    app.add_option("--photons", photons_path, "Photon map from trace-photons")->required();
+    app.add_option("--photon-map", photons_path, "Photon map from trace-photons")->required();
     app.add_option("-o,--output", output, "Cache positions to write (.h5)")->required();
-    app.add_option("--count", opt.count, "Caches in total (camera caches included)");
-    app.add_option("--camera-stride", opt.camera_stride, "One camera cache per NxN pixel block (0 = none)");
-    app.add_option("--reach-paths", opt.reach_paths,
-                   "Camera paths per camera block that find the surfaces a render reaches; only photons there "
-                   "become photon caches (default 0: every photon is a candidate; 4 was measured, "
-                   "docs/benchmarks/window_room.md)");
+    std::vector<std::string> assignments;
+    iris::add_settings_options(app, iris::kPlaceCaches, "place-caches", &assignments);
     app.add_option("--resolution", resolution, "Image size WxH the blocks refer to (default: the scene's film)");
     app.add_option("-t,--threads", opt.threads, "Worker threads (default: all cores)");
     app.add_option("--seed", opt.seed, "Random seed");
-    double min_caustic_share = 0;
-    app.add_option("--min-caustic-share", min_caustic_share,
-                   "Place no caches (the render then stays unguided) when less than this fraction of the photon "
-                   "power arrives through specular chains (default 0: always place them)");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
     bool no_scene_warnings = false;
     iris::add_scene_options(app, &defines, &no_scene_warnings);
     if (int rc = iris::parse_command_line(app, argc, argv, "place-caches"); rc >= 0) return rc;
     try {
         if (!resolution.empty()) iris::parse_resolution(resolution, &opt.width, &opt.height);
-        if (opt.count == 0) throw std::runtime_error("--count must be positive");
-        if (opt.camera_stride < 0) throw std::runtime_error("--camera-stride must be >= 0");
-        if (opt.reach_paths < 0) throw std::runtime_error("--reach-paths must be >= 0");
+        iris::Settings settings(iris::kPlaceCaches, "place-caches");
+        settings.set_all(assignments);
+        opt.count = uint32_t(settings.integer("cache-count"));
+        opt.camera_stride = int(settings.integer("camera-stride"));
+        opt.reach_paths = int(settings.integer("reach-paths"));
+        const double min_caustic_share = settings.number("min-caustic-share");
         if (opt.threads < 0) throw std::runtime_error("--threads must be >= 0 (0 = all cores)");
-        if (!(min_caustic_share >= 0 && min_caustic_share <= 1))
-            throw std::runtime_error("--min-caustic-share must be in [0, 1]");
         iris::check_output_path(output);
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
@@ -77,17 +71,18 @@ int main(int argc, char** argv) {
                            {"cell_size", stats.cell_size},          {"seconds", stats.seconds},
                            {"min_caustic_share", min_caustic_share}, {"caustic_share", caustic_share},
                            {"reach_paths", double(opt.reach_paths)}, {"eligible_photons", double(stats.eligible)}};
+        settings.add_to_parameters(&prov.parameters);
         iris::write_cache_points(output, caches, scene.fingerprint, prov);
         if (skip)  // said even with -q: it decides what the render does
             std::fprintf(stderr,
                          "place-caches: no caches: %.2f %% of the photon power arrives through specular chains "
-                         "(--min-caustic-share %.2f %%), so the render stays unguided; wrote %s\n",
-                         100 * caustic_share, 100 * min_caustic_share, output.c_str());
+                         "(below min-caustic-share=%g), so the render stays unguided; wrote %s\n",
+                         100 * caustic_share, min_caustic_share, output.c_str());
         else if (!opt.quiet)
             std::fprintf(stderr, "place-caches: wrote %s (%u camera + %u photon caches, %llu of %zu photons %s, %.2f s)\n",
                          output.c_str(), stats.camera, stats.photon, (unsigned long long)stats.eligible,
                          pf.photons.position.size(),
-                         opt.reach_paths > 0 ? "on surfaces camera paths reach" : "candidates (--reach-paths 0)",
+                         opt.reach_paths > 0 ? "on surfaces camera paths reach" : "candidates (reach-paths=0)",
                          stats.seconds);
     } catch (const std::exception& e) {
         std::fprintf(stderr, "place-caches: error: %s\n", e.what());

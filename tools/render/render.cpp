@@ -42,14 +42,14 @@ void check_part(const Scene& scene, const RenderOptions& opt, const Setup& s) {
     const std::string range = std::to_string(opt.sample_begin) + ":" + std::to_string(opt.sample_end);
     if (s.timed) throw std::runtime_error("--sample-range needs a fixed --spp, not --time (a budget is not divisible into ranges)");
     if (opt.auto_guide && opt.guide)
-        throw std::runtime_error("--sample-range cannot be used with --mode auto (its pilot's choice is measured per "
-                                 "process); give a fixed --mode, e.g. nee+bsdf+cache");
+        throw std::runtime_error("--sample-range cannot be used with the pilot (its choice is measured per process); "
+                                 "set pilot=off");
     if (opt.caustics == RenderOptions::Caustics::Auto && CausticTracer::possible(scene))
-        throw std::runtime_error("--sample-range cannot be used with --caustics auto (its pilot's choice is measured per "
-                                 "process); give --caustics on or off");
+        throw std::runtime_error("--sample-range cannot be used with caustics=auto (its pilot's choice is measured per "
+                                 "process); set caustics=on or caustics=off");
     if (opt.snapshot_interval > 0) throw std::runtime_error("--sample-range cannot be used with --snapshot (a snapshot is not a whole part)");
     if (opt.learn)
-        throw std::runtime_error("--sample-range cannot be used with --learn (a sample's maps are refit from the samples "
+        throw std::runtime_error("--sample-range cannot be used with learn=on (a sample's maps are refit from the samples "
                                  "before it, which another process does not have)");
     if (!(opt.sample_begin >= 0 && opt.sample_begin < opt.sample_end && opt.sample_end <= s.target_spp))
         throw std::runtime_error("--sample-range " + range + " is not within the " + std::to_string(s.target_spp) +
@@ -73,14 +73,14 @@ Setup resolve(const Scene& scene, const RenderOptions& opt) {
     PathSettings& ps = s.ps;
     ps.guide = opt.guide;
     ps.mode = opt.guide ? opt.mode : GuideMode::NeeBsdf;
-    if (opt.guide_vertices < -1) throw std::runtime_error("--guide-vertices must be >= 0");
+    if (opt.guide_vertices < -1) throw std::runtime_error("guide-vertices must be >= 0");
     ps.guide_vertices = opt.guide_vertices < 0 ? 1 : opt.guide_vertices == 0 ? 1 << 30 : opt.guide_vertices;
     if (!opt.guide && opt.mode == GuideMode::BsdfCache) ps.mode = GuideMode::BsdfCache;
     ps.max_depth = opt.max_depth >= -1 ? opt.max_depth : scene.defaults.max_depth;
     ps.rr_depth = opt.rr_depth >= -1 ? opt.rr_depth : scene.defaults.rr_depth;
     if (ps.rr_depth < 0) ps.rr_depth = 1 << 30;
     if (opt.rr_threshold != -1 && !(opt.rr_threshold > 0 && opt.rr_threshold <= 1))
-        throw std::runtime_error("--rr-threshold must be in (0, 1]");
+        throw std::runtime_error("rr-threshold must be in (0, 1]");
     ps.rr_threshold = opt.rr_threshold == -1 ? kRouletteThreshold : opt.rr_threshold;
     s.timed = opt.time > 0;
     s.target_spp = opt.spp > 0 ? opt.spp : (s.timed ? (1 << 30) : scene.defaults.spp);
@@ -157,7 +157,7 @@ struct Render {
 // decides.
 void Render::choose_techniques() {
     if (opt.light_paths_per_pixel < 0 || !std::isfinite(opt.light_paths_per_pixel))
-        throw std::runtime_error("--light-paths must be positive");
+        throw std::runtime_error("light-paths must be positive");
     light_paths_per_pixel = light_possible && opt.caustics == RenderOptions::Caustics::On
                                 ? (opt.light_paths_per_pixel > 0 ? opt.light_paths_per_pixel : 1.0)
                                 : 0.0;
@@ -173,7 +173,7 @@ void Render::choose_techniques() {
         run_pilot();
     } else if (opt.caustics != RenderOptions::Caustics::Off && !opt.quiet) {
         std::fprintf(stderr, "render: caustics %s\n",
-                     light_possible ? "light-traced (--caustics on)"
+                     light_possible ? "light-traced (caustics=on)"
                                     : "not light-traced: no area light or sky reaches a surface through a specular (Dirac) bounce");
     }
 }

@@ -71,19 +71,19 @@ void trace_one(const Scene& scene, const PhotonOptions& o, uint64_t index, std::
 }  // namespace
 
 PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats* stats) {
-    if (o.paths == 0) throw std::runtime_error("--paths must be positive");
+    if (o.paths == 0) throw std::runtime_error("photon-paths must be positive");
     // Far beyond any feasible run; above it the chunk count (paths + kChunk - 1) / kChunk would overflow.
-    if (o.paths > (uint64_t(1) << 48)) throw std::runtime_error("--paths is too large: " + std::to_string(o.paths));
+    if (o.paths > (uint64_t(1) << 48)) throw std::runtime_error("photon-paths is too large: " + std::to_string(o.paths));
     // 0 would trace nothing yet write a map claiming N emitted paths; other negatives are no depth.
     if (o.max_depth == 0 || o.max_depth < -1)
-        throw std::runtime_error("--max-depth must be -1 (unlimited) or at least 1, got " + std::to_string(o.max_depth));
-    if (o.rr_depth < 1) throw std::runtime_error("--rr-depth must be at least 1");
-    if (!(o.cutoff >= 0 && o.cutoff < 1)) throw std::runtime_error("--cutoff must be in [0, 1)");
+        throw std::runtime_error("photon-depth must be -1 (unlimited) or at least 1, got " + std::to_string(o.max_depth));
+    if (o.rr_depth < 1) throw std::runtime_error("photon-rr-depth must be at least 1");
+    if (!(o.cutoff >= 0 && o.cutoff < 1)) throw std::runtime_error("photon-cutoff must be in [0, 1)");
     if (scene.light_selection.empty()) throw std::runtime_error(scene.source + ": the scene has no light with power");
     const uint64_t first = o.path_end > 0 ? o.path_begin : 0, last = o.path_end > 0 ? o.path_end : o.paths;
     if (!(first < last && last <= o.paths))
         throw std::runtime_error("--path-range " + std::to_string(first) + ":" + std::to_string(last) +
-                                 " is not within the " + std::to_string(o.paths) + " paths (0 <= A < B <= --paths)");
+                                 " is not within the " + std::to_string(o.paths) + " paths (0 <= A < B <= photon-paths)");
     int threads = o.threads > 0 ? o.threads : int(std::max(1u, std::thread::hardware_concurrency()));
     tbb::global_control gc(tbb::global_control::max_allowed_parallelism, size_t(threads));
     const uint64_t chunks = (last - first + kChunk - 1) / kChunk;
@@ -135,7 +135,7 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
 }
 
 uint64_t paths_for_photons(const Scene& scene, const PhotonOptions& opts, uint64_t photons) {
-    if (photons == 0) throw std::runtime_error("--photons must be positive");
+    if (photons == 0) throw std::runtime_error("photon-count must be positive");
     PhotonOptions probe = opts;
     probe.paths = kProbePaths;
     probe.path_begin = probe.path_end = 0;

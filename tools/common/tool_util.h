@@ -59,7 +59,7 @@ inline void parse_resolution(const std::string& s, int* width, int* height) {
         throw std::runtime_error("--resolution must be WxH with positive integers, got \"" + s + "\"");
 }
 
-// A whole string as a finite float (for options that also take a word, like --bsdf-fraction auto);
+// A whole string as a finite float (for options that also take a word, like a setting that also takes auto);
 // throws naming the option otherwise.
 inline float parse_float_option(const char* option, const std::string& s) {
     char* end = nullptr;
