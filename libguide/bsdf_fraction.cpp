@@ -1,4 +1,4 @@
-#include "libcommon/bsdf_fraction.h"
+#include "libguide/bsdf_fraction.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "libcommon/packed_map.h"
+#include "libguide/packed_map.h"
 
 #include <algorithm>
 #include <cstring>

@@ -1,4 +1,4 @@
-#include "tools/render/film_parts.h"
+#include "formats/film_parts.h"
 
 #include <cmath>
 #include <cstdint>

@@ -1,4 +1,4 @@
-#include "tools/render/guide.h"
+#include "libguide/guide.h"
 
 #include <sys/mman.h>
 #include <tbb/blocked_range.h>
@@ -17,9 +17,9 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "libcommon/bsdf_fraction.h"
+#include "libguide/bsdf_fraction.h"
 #include "libcommon/rng.h"
-#include "libcommon/packed_map.h"
+#include "libguide/packed_map.h"
 #include "libcommon/point_tree.h"
 #include "libcommon/spheremap.h"
 
@@ -44,7 +44,7 @@ const char* guide_mode_name(GuideMode m) {
 }
 
 static_assert(kCacheAtlasMaxResolution <= packed_map::kMaxResolution,
-              "every map an atlas may hold must pack (formats/cache_atlas.h, libcommon/packed_map.h)");
+              "every map an atlas may hold must pack (formats/cache_atlas.h, libguide/packed_map.h)");
 
 namespace {
 // A cache serves points up to this many times its gather radius away: the photons it holds came from

@@ -19,7 +19,7 @@
 
 #include "formats/cache_atlas.h"
 #include "libcommon/math.h"
-#include "libcommon/packed_map.h"
+#include "libguide/packed_map.h"
 #include "libcommon/point_tree.h"
 #include "libcommon/rng.h"
 #include "libcommon/spheremap.h"
@@ -41,7 +41,7 @@ const char* guide_mode_name(GuideMode m);
 
 // How the probability alpha of BSDF sampling is set where a cache guides.
 struct GuideOptions {
-    // < 0: per cache, from the cache's own distribution (libcommon/bsdf_fraction.h), and caches whose
+    // < 0: per cache, from the cache's own distribution (libguide/bsdf_fraction.h), and caches whose
     // predicted gain is below min_gain are not used at all (the vertex is unguided: no sampling cost).
     // In [0, 1): this constant for every usable cache (the thesis's setting; for parameter studies).
     float bsdf_fraction = -1.0f;
@@ -415,7 +415,7 @@ private:
     // in huge pages where the system allows (random access to megabytes: every lookup would otherwise
     // also miss the TLB):
     //   [header: the cache's frame s, t, n (9 floats), alpha, padded to 64 bytes][its map, packed
-    //    (libcommon/packed_map.h): row ends, then each row's cumulative texel counts]
+    //    (libguide/packed_map.h): row ends, then each row's cumulative texel counts]
     // The header's line and the row ends are what every guided vertex needs (alpha 1 = not guiding),
     // adjacent so that they load together; a density or a sample then reads one row's counts.
     // kRecord: 1 where a learning render still records path samples at the cache (its header is read
