@@ -16,7 +16,7 @@ inline constexpr const char* kCacheAtlasFormat = "iris-cache-atlas";
 inline constexpr int kCacheAtlasVersion = 1;
 inline constexpr const char* kCacheAtlasMapping = "equal-area-octahedral";
 // Largest accepted map resolution: the renderer packs each map as 16-bit cumulative counts, whose
-// rounding bound holds up to 256 x 256 texels (libcommon/packed_map.h), and fill-caches writes no more.
+// rounding bound holds up to 256 x 256 texels (libguide/packed_map.h), and fill-caches writes no more.
 inline constexpr int kCacheAtlasMaxResolution = 256;
 
 // Caches as parallel arrays of size(); pdf and cdf hold size() rows of texels() values each.
@@ -64,7 +64,7 @@ struct CacheAtlasFile {
 };
 
 // Which maps a reader loads. The renderer samples from its own packed form of the pdf
-// (libcommon/packed_map.h), so it skips the cdf: half the maps' bytes to decompress and check.
+// (libguide/packed_map.h), so it skips the cdf: half the maps' bytes to decompress and check.
 enum class AtlasMaps { PdfAndCdf, PdfOnly };
 
 // "" if `atlas` satisfies the contract, else what is wrong (naming the dataset, cache and texel):

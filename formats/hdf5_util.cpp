@@ -3,15 +3,12 @@
 #include "formats/hdf5_util.h"
 
 #include "formats/atomic_file.h"
+#include "formats/hdf5_wrappers.h"
 
 #include <fcntl.h>
-#include <hdf5.h>
-#include <tbb/parallel_for.h>
 #include <unistd.h>
-#include <zlib.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -22,105 +19,6 @@
 
 namespace iris {
 namespace {
-
-// Datasets smaller than this are stored contiguously: chunk indexing and filters cost more than they
-// save on a few kilobytes (and a chunked layout cannot describe an empty fixed-size dataset).
-constexpr size_t kChunkThresholdBytes = 64 * 1024;
-// Chunk size aimed for: large enough for deflate to find repetition, below HDF5's default 1 MiB
-// chunk cache so a reader that reads row ranges keeps whole chunks cached.
-constexpr size_t kChunkTargetBytes = 256 * 1024;
-// Deflate level. Measured (one thread) on 1M photons in a box (48 MB raw) and a 20000-cache R=16 atlas
-// (42 MB raw): level 1 gives 22.5 MB / 11.1 MB in 2.2 s / 1.2 s of compression, level 4 21.4 MB /
-// 9.4 MB in 3.8 s / 1.8 s. Level 1 keeps most of the gain for 60 % of the time, and writing the
-// photons must not cost more than tracing them.
-constexpr int kDeflateLevel = 1;
-// Chunks compressed or decompressed per parallel batch (bounds the memory held at once to ~16 MiB).
-constexpr size_t kChunkBatch = 64;
-
-std::string one_line(std::string s) {
-    for (char& c : s)
-        if (c == '\n' || c == '\r') c = ' ';
-    while (!s.empty() && s.back() == ' ') s.pop_back();
-    return s;
-}
-
-// Switches off HDF5's automatic error-stack printing for the guard's lifetime and restores whatever
-// the program had before. In thread-safe HDF5 builds (Debian's is one) the setting is per thread, so
-// the guard must live on the thread that makes the calls; Writer and Reader hold one each.
-class QuietHdf5 {
-public:
-    QuietHdf5() {
-        H5Eget_auto2(H5E_DEFAULT, &func_, &data_);
-        H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-    }
-    ~QuietHdf5() { H5Eset_auto2(H5E_DEFAULT, func_, data_); }
-    QuietHdf5(const QuietHdf5&) = delete;
-    QuietHdf5& operator=(const QuietHdf5&) = delete;
-
-private:
-    H5E_auto2_t func_ = nullptr;
-    void* data_ = nullptr;
-};
-
-herr_t innermost_error(unsigned, const H5E_error2_t* err, void* out) {
-    auto* s = static_cast<std::string*>(out);
-    if (s->empty() && err && err->desc && *err->desc) *s = err->desc;
-    return 0;
-}
-
-// The most specific message on HDF5's error stack (e.g. "truncated file: eof = 2048, ..."). Must be
-// called straight after the failing call: the next API call clears the stack.
-std::string hdf5_detail() {
-    std::string s;
-    H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, innermost_error, &s);
-    return s.empty() ? std::string() : " (HDF5: " + one_line(s) + ")";
-}
-
-// Owns one HDF5 identifier and closes it with the matching H5?close.
-class Id {
-public:
-    Id() = default;
-    Id(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-    ~Id() { reset(); }
-    Id(Id&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = H5I_INVALID_HID; }
-    Id& operator=(Id&& o) noexcept {
-        if (this != &o) {
-            reset();
-            id_ = o.id_;
-            close_ = o.close_;
-            o.id_ = H5I_INVALID_HID;
-        }
-        return *this;
-    }
-    Id(const Id&) = delete;
-    Id& operator=(const Id&) = delete;
-    // Returns the close call's status (< 0: failed), so writers can notice a failed final flush.
-    herr_t reset() {
-        herr_t r = 0;
-        if (id_ >= 0 && close_) r = close_(id_);
-        id_ = H5I_INVALID_HID;
-        return r;
-    }
-    hid_t get() const { return id_; }
-    bool valid() const { return id_ >= 0; }
-
-private:
-    hid_t id_ = H5I_INVALID_HID;
-    herr_t (*close_)(hid_t) = nullptr;
-};
-
-// File access: close everything still open with the file (STRONG: a leaked handle cannot keep a
-// half-written file open), and don't fail where the file system has no locks (NFS, some containers).
-Id file_access() {
-    Id fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose);
-    if (fapl.valid()) {
-        H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG);
-#if H5_VERSION_GE(1, 10, 7)
-        H5Pset_file_locking(fapl.get(), true, true);
-#endif
-    }
-    return fapl;
-}
 
 // UTC now, ISO 8601. SOURCE_DATE_EPOCH (the reproducible-builds convention) overrides the clock, so
 // two runs with the same inputs can produce byte-identical files when a test or a build wants that.
@@ -136,127 +34,6 @@ std::string iso_time_now() {
     char buf[32];
     std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
     return buf;
-}
-
-const char* an(const std::string& word) {
-    return !word.empty() && std::strchr("aeiouAEIOU", word[0]) ? "an" : "a";
-}
-
-std::string shape_text(const hsize_t* dims, int rank) {
-    std::string s = "(";
-    for (int i = 0; i < rank; ++i) s += (i ? ", " : "") + std::to_string(dims[i]);
-    return s + (rank == 1 ? ",)" : ")");
-}
-
-// ---- parallel chunk codec ---------------------------------------------------------------------------
-//
-// HDF5 runs filters on one thread: deflating a million photons took 2.5 s there, more than tracing them.
-// So large datasets are encoded here, chunk by chunk in parallel (TBB, honouring the tool's thread
-// limit), with exactly what HDF5's own shuffle + deflate filters produce, and stored with
-// H5Dwrite_chunk; reading does the reverse with H5Dread_chunk. The files are ordinary shuffle+deflate
-// datasets: h5dump, h5py and plain H5Dread read them (the tests check this both ways). Each chunk
-// is encoded independently and written in order, so the bytes do not depend on the thread count.
-
-// HDF5's shuffle filter (H5Zshuffle.c) on one chunk of n elements of `es` bytes: byte j of element i
-// goes to j * n + i. Elements past `valid` are fill (0): HDF5 stores edge chunks at full size.
-void shuffle_chunk(const unsigned char* src, size_t valid, size_t n, size_t es, unsigned char* dst) {
-    for (size_t j = 0; j < es; ++j) {
-        unsigned char* d = dst + j * n;
-        for (size_t i = 0; i < valid; ++i) d[i] = src[i * es + j];
-        std::fill(d + valid, d + n, 0);
-    }
-}
-
-// Inverse of shuffle_chunk for the first `valid` elements.
-void unshuffle_chunk(const unsigned char* src, size_t valid, size_t n, size_t es, unsigned char* dst) {
-    for (size_t j = 0; j < es; ++j) {
-        const unsigned char* s = src + j * n;
-        for (size_t i = 0; i < valid; ++i) dst[i * es + j] = s[i];
-    }
-}
-
-// Writes `rows` rows of `row_bytes` bytes (elements of `es` bytes) into chunked dataset `ds` whose
-// chunks hold `chunk_rows` rows and whose filters are [shuffle, deflate(kDeflateLevel)].
-bool write_chunks_parallel(hid_t ds, const unsigned char* data, size_t rows, size_t row_bytes, size_t es,
-                           size_t chunk_rows) {
-    const size_t n_chunks = (rows + chunk_rows - 1) / chunk_rows;
-    const size_t chunk_bytes = chunk_rows * row_bytes, chunk_elems = chunk_bytes / es;
-    std::vector<std::vector<unsigned char>> packed(std::min(kChunkBatch, n_chunks));
-    for (size_t first = 0; first < n_chunks; first += kChunkBatch) {
-        const size_t count = std::min(kChunkBatch, n_chunks - first);
-        std::atomic<bool> failed{false};
-        tbb::parallel_for(size_t(0), count, [&](size_t b) {
-            const size_t r0 = (first + b) * chunk_rows, nr = std::min(chunk_rows, rows - r0);
-            std::vector<unsigned char> shuffled(chunk_bytes);
-            shuffle_chunk(data + r0 * row_bytes, nr * row_bytes / es, chunk_elems, es, shuffled.data());
-            uLongf size = compressBound(uLong(chunk_bytes));
-            packed[b].resize(size);
-            // compress2 writes the zlib stream HDF5's deflate filter writes and inflates.
-            if (compress2(packed[b].data(), &size, shuffled.data(), uLong(chunk_bytes), kDeflateLevel) != Z_OK)
-                failed = true;
-            packed[b].resize(size);
-        });
-        if (failed) return false;
-        for (size_t b = 0; b < count; ++b) {
-            const hsize_t offset[2] = {hsize_t((first + b) * chunk_rows), 0};
-            // filter mask 0: every filter of the pipeline was applied to this chunk.
-            if (H5Dwrite_chunk(ds, H5P_DEFAULT, 0, offset, packed[b].size(), packed[b].data()) < 0) return false;
-        }
-    }
-    return true;
-}
-
-// Reads dataset `ds` of `rows` rows of `row_bytes` bytes into `out` in parallel if it was stored the
-// way write_chunks_parallel stores it (chunked by whole rows, [shuffle, deflate], file type equal to
-// `mem_type`, every chunk present and fully filtered). Returns false, having possibly written part of
-// `out`, for anything else; the caller then reads it with H5Dread, which handles every layout.
-bool read_chunks_parallel(hid_t ds, hid_t mem_type, unsigned char* out, size_t rows, size_t row_bytes) {
-    Id dcpl(H5Dget_create_plist(ds), H5Pclose);
-    Id ftype(H5Dget_type(ds), H5Tclose);
-    if (!dcpl.valid() || !ftype.valid() || H5Pget_layout(dcpl.get()) != H5D_CHUNKED) return false;
-    if (H5Tequal(ftype.get(), mem_type) <= 0 || H5Pget_nfilters(dcpl.get()) != 2) return false;
-    const H5Z_filter_t expected[2] = {H5Z_FILTER_SHUFFLE, H5Z_FILTER_DEFLATE};
-    for (unsigned f = 0; f < 2; ++f) {
-        unsigned flags = 0;
-        size_t n_cd = 0;
-        if (H5Pget_filter2(dcpl.get(), f, &flags, &n_cd, nullptr, 0, nullptr, nullptr) != expected[f]) return false;
-    }
-    const size_t es = H5Tget_size(ftype.get());
-    hsize_t chunk[H5S_MAX_RANK] = {};
-    const int rank = H5Pget_chunk(dcpl.get(), H5S_MAX_RANK, chunk);
-    if (rank < 1 || rank > 2 || es == 0 || row_bytes % es != 0) return false;
-    if (rank == 2 && chunk[1] * es != row_bytes) return false;  // chunks must span whole rows
-    if (rank == 1 && es != row_bytes) return false;
-    const size_t chunk_rows = size_t(chunk[0]);
-    if (chunk_rows == 0) return false;
-    const size_t n_chunks = (rows + chunk_rows - 1) / chunk_rows;
-    const size_t chunk_bytes = chunk_rows * row_bytes, chunk_elems = chunk_bytes / es;
-    std::vector<std::vector<unsigned char>> packed(std::min(kChunkBatch, n_chunks));
-    for (size_t first = 0; first < n_chunks; first += kChunkBatch) {
-        const size_t count = std::min(kChunkBatch, n_chunks - first);
-        for (size_t b = 0; b < count; ++b) {
-            const hsize_t offset[2] = {hsize_t((first + b) * chunk_rows), 0};
-            hsize_t nbytes = 0;
-            uint32_t mask = 0;
-            if (H5Dget_chunk_storage_size(ds, offset, &nbytes) < 0 || nbytes == 0) return false;
-            packed[b].resize(size_t(nbytes));
-            if (H5Dread_chunk(ds, H5P_DEFAULT, offset, &mask, packed[b].data()) < 0 || mask != 0) return false;
-        }
-        std::atomic<bool> failed{false};
-        tbb::parallel_for(size_t(0), count, [&](size_t b) {
-            const size_t r0 = (first + b) * chunk_rows, nr = std::min(chunk_rows, rows - r0);
-            std::vector<unsigned char> shuffled(chunk_bytes);
-            uLongf size = uLongf(chunk_bytes);
-            if (uncompress(shuffled.data(), &size, packed[b].data(), uLong(packed[b].size())) != Z_OK ||
-                size != chunk_bytes) {
-                failed = true;
-                return;
-            }
-            unshuffle_chunk(shuffled.data(), nr * row_bytes / es, chunk_elems, es, out + r0 * row_bytes);
-        });
-        if (failed) return false;
-    }
-    return true;
 }
 
 }  // namespace
@@ -297,108 +74,10 @@ std::string check_unit(const char* name, const std::vector<Vec3>& v) {
 
 }  // namespace h5
 
-// ---- attribute helpers (file-local) ----------------------------------------------------------------
+// ---- Writer ----------------------------------------------------------------------------------------
 
+namespace h5 {
 namespace {
-
-// Writes a scalar attribute of `file_type` from memory of `mem_type`. Returns false on failure (the
-// caller adds the name and throws).
-bool write_scalar_attribute(hid_t loc, const char* name, hid_t file_type, hid_t mem_type, const void* value) {
-    Id space(H5Screate(H5S_SCALAR), H5Sclose);
-    if (!space.valid()) return false;
-    Id attr(H5Acreate2(loc, name, file_type, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-    if (!attr.valid()) return false;
-    if (H5Awrite(attr.get(), mem_type, value) < 0) return false;
-    return attr.reset() >= 0;
-}
-
-// Strings are variable-length UTF-8: h5py reads them as str (fixed-length ones arrive as bytes).
-bool write_string_attribute(hid_t loc, const char* name, const std::string& value) {
-    Id type(H5Tcopy(H5T_C_S1), H5Tclose);
-    if (!type.valid() || H5Tset_size(type.get(), H5T_VARIABLE) < 0 || H5Tset_cset(type.get(), H5T_CSET_UTF8) < 0)
-        return false;
-    const char* p = value.c_str();
-    return write_scalar_attribute(loc, name, type.get(), type.get(), &p);
-}
-
-// Reading: a missing attribute, a non-scalar one or one of the wrong class is reported in *error.
-Id open_attribute(hid_t loc, const char* name, H5T_class_t* cls, std::string* error) {
-    htri_t exists = H5Aexists(loc, name);
-    if (exists <= 0) {
-        *error = "missing attribute '" + std::string(name) + "'";
-        return {};
-    }
-    Id attr(H5Aopen(loc, name, H5P_DEFAULT), H5Aclose);
-    if (!attr.valid()) {
-        *error = "cannot open attribute '" + std::string(name) + "'" + hdf5_detail();
-        return {};
-    }
-    Id space(H5Aget_space(attr.get()), H5Sclose);
-    if (!space.valid() || H5Sget_simple_extent_npoints(space.get()) != 1) {
-        *error = "attribute '" + std::string(name) + "' is not a single value";
-        return {};
-    }
-    Id type(H5Aget_type(attr.get()), H5Tclose);
-    *cls = type.valid() ? H5Tget_class(type.get()) : H5T_NO_CLASS;
-    return attr;
-}
-
-bool read_string_attribute(hid_t loc, const char* name, std::string* out, std::string* error) {
-    H5T_class_t cls = H5T_NO_CLASS;
-    Id attr = open_attribute(loc, name, &cls, error);
-    if (!attr.valid()) return false;
-    if (cls != H5T_STRING) {
-        *error = "attribute '" + std::string(name) + "' is not a string";
-        return false;
-    }
-    Id ftype(H5Aget_type(attr.get()), H5Tclose);
-    htri_t vlen = H5Tis_variable_str(ftype.get());
-    if (vlen > 0) {
-        Id mtype(H5Tcopy(H5T_C_S1), H5Tclose);
-        H5Tset_size(mtype.get(), H5T_VARIABLE);
-        H5Tset_cset(mtype.get(), H5Tget_cset(ftype.get()));
-        char* p = nullptr;
-        if (H5Aread(attr.get(), mtype.get(), &p) < 0) {
-            *error = "cannot read attribute '" + std::string(name) + "'" + hdf5_detail();
-            return false;
-        }
-        *out = p ? p : "";
-        H5free_memory(p);
-        return true;
-    }
-    // Fixed-length (as some writers, e.g. h5py with numpy bytes, produce): NUL-terminated or padded.
-    size_t size = H5Tget_size(ftype.get());
-    std::string buf(size + 1, '\0');
-    Id mtype(H5Tcopy(H5T_C_S1), H5Tclose);
-    H5Tset_size(mtype.get(), size + 1);
-    H5Tset_cset(mtype.get(), H5Tget_cset(ftype.get()));
-    if (H5Aread(attr.get(), mtype.get(), buf.data()) < 0) {
-        *error = "cannot read attribute '" + std::string(name) + "'" + hdf5_detail();
-        return false;
-    }
-    buf.resize(std::strlen(buf.c_str()));
-    while (!buf.empty() && buf.back() == ' ') buf.pop_back();  // H5T_STR_SPACEPAD
-    *out = buf;
-    return true;
-}
-
-// Numeric attribute read through HDF5's conversion into `mem_type`; `allow_float` accepts float
-// attributes (for doubles), otherwise only integers are accepted.
-bool read_numeric_attribute(hid_t loc, const char* name, hid_t mem_type, bool allow_float, void* out,
-                            std::string* error) {
-    H5T_class_t cls = H5T_NO_CLASS;
-    Id attr = open_attribute(loc, name, &cls, error);
-    if (!attr.valid()) return false;
-    if (!(cls == H5T_INTEGER || (allow_float && cls == H5T_FLOAT))) {
-        *error = "attribute '" + std::string(name) + "' is not " + (allow_float ? "a number" : "an integer");
-        return false;
-    }
-    if (H5Aread(attr.get(), mem_type, out) < 0) {
-        *error = "cannot read attribute '" + std::string(name) + "'" + hdf5_detail();
-        return false;
-    }
-    return true;
-}
 
 struct ParameterScan {
     std::map<std::string, double>* out;
@@ -414,10 +93,6 @@ herr_t read_parameter(hid_t loc, const char* name, const H5A_info_t*, void* data
 }
 
 }  // namespace
-
-// ---- Writer ----------------------------------------------------------------------------------------
-
-namespace h5 {
 
 struct Writer::Impl {
     QuietHdf5 quiet;
@@ -796,7 +471,7 @@ std::string stage_file_format(const std::string& path) {
     r.path = path;
     r.open();
     std::string v, error;
-    if (!read_string_attribute(r.file.get(), "format", &v, &error))
+    if (!h5::read_string_attribute(r.file.get(), "format", &v, &error))
         r.fail(H5Aexists(r.file.get(), "format") > 0 ? error : "not an iris stage file (no 'format' attribute)");
     return v;
 }

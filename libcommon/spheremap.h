@@ -26,7 +26,7 @@
 //   SphereFilter                          a precomputed Gaussian filter on the sphere, per (R, sigma)
 //   SphereDistribution                    pmf/cdf/pdf tables; sample/pdf/invert (also on raw
 //                                         pointers, to check an atlas's tables in place)
-// The renderer samples a compact copy of each map (libcommon/packed_map.h).
+// The renderer samples a compact copy of each map (libguide/packed_map.h).
 #pragma once
 
 #include <algorithm>

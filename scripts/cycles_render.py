@@ -29,7 +29,7 @@ Translation (what Cycles gets for each iris object):
                  exp(-2 (6v/3W)^2) = exp(-v^2 / (2 (W/4)^2)) over +-1.5 W, so its standard deviation is
                  W/4 pixels: W = 4 sigma (2 px for Mitsuba's sigma 0.5, cut at +-3 px = 6 sigma; iris cuts
                  at 4 sigma and subtracts the Gaussian's value there, which moves weights by < 4e-4).
-                 Measured with scripts/filter_profile.py (a slanted emitter edge, both renderers): the
+                 Measured with `python3 -m scripts.bench filter-profile` (a slanted emitter edge): the
                  fitted sigma agrees with iris's to within 2 %; the earlier mapping W = 12 sigma gave
                  Cycles sigma 1.5 px. Box: width 1 (uniform over the pixel, as iris's box of radius 0.5).
                  --filter-width overrides W (for that measurement).

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs everything iris needs to build and test, from Debian packages (python3-matplotlib: the
-# benchmark plots, scripts/bench.py; python3-numpy: scripts/exr.py and the peers benchmark). Run as root
+# benchmark harness's plots, scripts/bench/; python3-numpy: scripts/exr.py and the harness). Run as root
 # (or with sudo).
 set -euo pipefail
 SUDO=""

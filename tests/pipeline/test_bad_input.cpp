@@ -396,7 +396,7 @@ const BadInputCase kCases[] = {
     {"RenderSampleRangeBeyondSpp", "render", "--sample-range beyond --spp", "{in}/valid.xml --spp 4 --sample-range 2:8 -o {out}", "2:8"},
     {"RenderSampleRangeReversed", "render", "--sample-range 5:2", "{in}/valid.xml --spp 8 --sample-range 5:2 -o {out}", "--sample-range"},
     {"RenderSampleRangeSnapshot", "render", "--sample-range with --snapshot", "{in}/valid.xml --spp 4 --sample-range 0:2 --snapshot 5 -o {out}", "--snapshot"},
-    {"RenderSampleRangeLearn", "render", "--sample-range with --set learn=on (maps refit from earlier samples)", "{in}/caustic.xml --atlas {in}/atlas.h5 --set learn=on --set pilot=off --spp 4 --sample-range 0:2 -o {out}", "--learn"},
+    {"RenderSampleRangeLearn", "render", "--sample-range with --set learn=on (maps refit from earlier samples)", "{in}/caustic.xml --atlas {in}/atlas.h5 --set learn=on --set pilot=off --spp 4 --sample-range 0:2 -o {out}", "learn=on"},
     {"RenderUnknownFlag", "render", "a flag that does not exist", "{in}/valid.xml --no-such-flag -o {out}", "--no-such-flag"},
     {"RenderNoOutput", "render", "-o left out", "{in}/valid.xml", "--output"},
     {"RenderAtlasMissing", "render", "--atlas file does not exist", "{in}/valid.xml --atlas {in}/missing.h5 -o {out}", "missing.h5", "No such file or directory"},

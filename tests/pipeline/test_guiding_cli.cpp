@@ -198,7 +198,7 @@ TEST_F(GuidingCli, NoPhotonsWithoutSpecularSurfaces) {
     EXPECT_GT(read_photon_map(d.file("pc.h5"), "").photons.size(), 0u);
 }
 
-// The render's work counters in the image's metadata (what scripts/bench-cost.sh splits the per-sample cost
+// The render's work counters in the image's metadata (what `python3 -m scripts.bench cost` splits the per-sample cost
 // by): unguided, no cache lookups; guiding the first vertex, at most one per path and some; guiding every
 // vertex, more; and at least one ray per path in every render.
 TEST_F(GuidingCli, RenderRecordsItsRaysAndCacheLookups) {

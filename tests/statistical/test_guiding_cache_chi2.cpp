@@ -1,5 +1,5 @@
 // The cache sampler as the renderer uses it: atlases built by fill_caches (tools/fill-caches) from
-// photons, wrapped in a Guide (tools/render/guide.h), sampled and evaluated in *world* directions.
+// photons, wrapped in a Guide (libguide/guide.h), sampled and evaluated in *world* directions.
 // DESIGN.md 4.1 (exact PDFs) and 4.2 (one frame, one cache): Guide::sample must produce directions
 // with exactly the density Guide::pdf reports, through the cache's own frame. Per cache:
 //   1. cheap exact checks first (STYLE.md habit 7): the stored row sums to one (sum pdf 4 pi / N = 1),
@@ -10,7 +10,7 @@
 //   4. chi-square of world-direction histograms (tests/support/chi2.h, cos theta x phi cells of the
 //      world sphere, whose edges cut the tilted texels anywhere) against Guide::pdf;
 //   5. chi-square of the texel each world sample falls in (re-derived through the frame) against the
-//      texel probabilities of the guide's packed map (libcommon/packed_map.h): exact expectations, no
+//      texel probabilities of the guide's packed map (libguide/packed_map.h): exact expectations, no
 //      quadrature.
 // Caches come from two sources: photons made here by hand (clustered directions, caches with tilted
 // and downward normals, two map settings) and the photons of the tiny caustic scene. All chi-square
@@ -30,7 +30,7 @@
 #include "support/run_tool.h"
 #include "tools/fill-caches/cache_filler.h"
 #include "tools/place-caches/cache_placer.h"
-#include "tools/render/guide.h"
+#include "libguide/guide.h"
 #include "tools/trace-photons/photon_tracer.h"
 
 namespace iris {

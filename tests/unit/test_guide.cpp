@@ -1,5 +1,5 @@
-// The renderer's side of the cache atlas (tools/render/guide.h) and the per-cache BSDF fraction
-// (libcommon/bsdf_fraction.h):
+// The renderer's side of the cache atlas (libguide/guide.h) and the per-cache BSDF fraction
+// (libguide/bsdf_fraction.h):
 //   - the packed maps the guide samples are exact distributions within their quantisation of the atlas's;
 //   - the guide's compile-time R = 32 path samples and evaluates bit for bit as the generic packed map;
 //   - the lookup takes its grid cell's answer for the vertex's normal axis (the cache nearest the cell's
@@ -16,12 +16,12 @@
 #include <map>
 #include <numeric>
 
-#include "libcommon/bsdf_fraction.h"
-#include "libcommon/packed_map.h"
+#include "libguide/bsdf_fraction.h"
+#include "libguide/packed_map.h"
 #include "libcommon/rng.h"
 #include "libcommon/sampling.h"
 #include "libcommon/spheremap.h"
-#include "tools/render/guide.h"
+#include "libguide/guide.h"
 
 namespace iris {
 namespace {
@@ -35,7 +35,7 @@ std::vector<float> lumpy_weights(int R, uint64_t seed) {
     return w;
 }
 
-// The packed map (libcommon/packed_map.h) is an exact distribution of its own: its densities integrate
+// The packed map (libguide/packed_map.h) is an exact distribution of its own: its densities integrate
 // to one, are zero exactly where the atlas's are, and its samples report exactly the density texel_pdf
 // gives their direction. It stays within its rounding of the atlas's density: a row's count is within
 // R counts of its exact share of 65535 (within one, except the largest row, which takes the rounding's

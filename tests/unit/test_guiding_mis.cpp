@@ -8,7 +8,7 @@
 // with alpha = 1 unguided (nee+bsdf, or no cache serves), alpha = 0 in nee+cache, the Guide's share in
 // the mixture modes; bsdf+cache has no NEE and gives the continuation weight 1.
 //
-// The integrator (tools/render/integrator.cpp) computes these inline, so this test rebuilds them from
+// The integrator (tools/render/path.cpp) computes these inline, so this test rebuilds them from
 // the public pieces it uses -- sample_light / light_pdf, bsdf_sample / bsdf_pdf, Guide::sample /
 // Guide::pdf -- the way the integrator combines them, and checks that for every path the two weights,
 // each evaluated *where its technique evaluates it*, sum to one:
@@ -41,7 +41,7 @@
 #include "support/run_tool.h"
 #include "tools/fill-caches/cache_filler.h"
 #include "tools/place-caches/cache_placer.h"
-#include "tools/render/guide.h"
+#include "libguide/guide.h"
 #include "tools/render/integrator.h"
 #include "tools/trace-photons/photon_tracer.h"
 

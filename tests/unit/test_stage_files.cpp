@@ -903,7 +903,7 @@ TEST(StageFileCacheAtlas, RefusesResolutionThatDoesNotMatchTheMaps) {
     expect_contains(e, "dataset 'pdf' has shape (4, 64), expected (n, 16)");
 }
 
-// The renderer packs maps up to 256 x 256 (libcommon/packed_map.h): a larger one is refused on reading,
+// The renderer packs maps up to 256 x 256 (libguide/packed_map.h): a larger one is refused on reading,
 // naming the file, rather than failing later inside the guide.
 TEST(StageFileCacheAtlas, RefusesResolutionAboveWhatTheRendererPacks) {
     TempDir dir;

@@ -9,7 +9,7 @@
 #include "libcommon/bsdf.h"
 #include "libcommon/camera.h"
 #include "libcommon/spheremap.h"
-#include "tools/render/guide.h"
+#include "libguide/guide.h"
 
 namespace iris {
 
@@ -110,7 +110,7 @@ std::string describe_cache_atlas(const CacheAtlas& a) {
     s += line("k, filter, sigma, floor",
               std::to_string(a.k) + ", " + a.filter + ", " + fmt("%.3g", a.filter_sigma) + ", " + fmt("%.3g", a.floor));
     s += line("memory of the maps", mib(double(a.pdf.size() + a.cdf.size()) * sizeof(float)) + " (pdf + cdf)");
-    // What render holds: per cache a header and the packed map (tools/render/guide.h).
+    // What render holds: per cache a header and the packed map (libguide/guide.h).
     const size_t table = a.size() * Guide::bytes_per_cache(a.resolution);
     s += line("render's table", mib(double(table)) + " (" + std::to_string(table) + " bytes)");
     std::vector<double> photons, radius, peak, coverage;

@@ -5,9 +5,9 @@
 #include <cstdlib>
 
 #include "libcommon/film.h"
+#include "formats/film_parts.h"
 #include "tools/common/settings.h"
 #include "tools/common/tool_util.h"
-#include "tools/render/film_parts.h"
 
 namespace iris {
 

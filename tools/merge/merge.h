@@ -2,7 +2,7 @@
 // processes (render --sample-range A:B, trace-photons --path-range A:B; e.g. the tasks of a Slurm job
 // array, pipelines/slurm/) joined into the file one process would have written.
 //
-// Images: the parts' film sums (tools/render/film_parts.h, stored exactly) are added, and the image is
+// Images: the parts' film sums (formats/film_parts.h, stored exactly) are added, and the image is
 // made from them by the code render uses, so it equals the single run's except where adding the sums
 // in another order rounds a double differently (then by ~1e-16 relative before the final rounding to
 // float). Photon maps: the parts' photons in range order, which are the single run's bit for bit (each

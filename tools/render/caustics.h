@@ -32,7 +32,7 @@
 #include "libcommon/film.h"
 #include "libcommon/scene.h"
 #include "tools/render/connections.h"
-#include "tools/render/integrator.h"
+#include "tools/render/path.h"
 
 namespace iris {
 

@@ -38,7 +38,7 @@
 
 #include "libcommon/color.h"
 #include "libcommon/scene.h"
-#include "tools/render/guide.h"
+#include "libguide/guide.h"
 
 namespace iris {
 
