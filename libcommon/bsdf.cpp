@@ -18,6 +18,7 @@
 // - Ward: the half vector is drawn from its slope distribution directly (equivalent to Mitsuba's
 //   phi/theta formulas, without their tan/atan quadrant bookkeeping).
 #include "libcommon/bsdf.h"
+#include "libcommon/mutation.h"
 
 #include <algorithm>
 #include <cfloat>
@@ -373,6 +374,7 @@ float pdf_front(const Bsdf& b, Vec3 wi, Vec3 wo) {
         case BsdfType::RoughDiffuse:
             return cosine_pdf(wo);
         case BsdfType::RoughConductor:
+            if (IRIS_MUTANT(bsdf_alpha_off)) return microfacet_reflection_pdf(MicrofacetDistribution(b.distribution, b.alpha_u * 1.05f, b.alpha_v * 1.05f), wi, normalize(wi + wo));
             return microfacet_reflection_pdf(conductor_distribution(b), wi, normalize(wi + wo));
         case BsdfType::Plastic: {
             const float p_spec = plastic_prob_specular(fresnel_dielectric(wi.z, b.ior), b.specular_sampling_weight);

@@ -13,6 +13,7 @@
 // Geometry that decides these is evaluated in double: distances and cosines are computed once from
 // float inputs, and double keeps d^2 / cos and 1 - cos(theta_max) accurate for tiny or far emitters.
 #include "libcommon/lights.h"
+#include "libcommon/mutation.h"
 
 #include <algorithm>
 #include <cfloat>
@@ -601,6 +602,7 @@ bool sample_light(const Scene& scene, Vec3 ref, float u_sel, Vec2 u, LightSample
         return false;
     }
     s->pdf *= pmf;  // same product, same order as light_pdf
+    if (IRIS_MUTANT(light_sample_pdf_scale)) s->pdf *= 1.1f;
     s->light = i;
     if (!(s->pdf > 0)) {  // underflow: light_pdf reports 0 for this point too
         *s = LightSample{};
@@ -624,6 +626,7 @@ float light_pdf(const Scene& scene, uint32_t light, uint32_t prim, Vec3 ref, Vec
         case LightType::Constant: pdf = kInv4Pi; break;
         case LightType::Envmap: pdf = envmap_pdf(*l.envmap, wi); break;
     }
+    if (IRIS_MUTANT(light_pdf_scale) && l.type == LightType::AreaMesh) pdf *= 1.1f;
     return pdf * pmf;
 }
 

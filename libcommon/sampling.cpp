@@ -8,6 +8,7 @@
 // - Every inverse returns u in [0, 1) (kOneMinusEpsilon is the largest float below 1), matching the
 //   domain of the forward maps, so that inverses can be fed straight back into sample_*.
 #include "libcommon/sampling.h"
+#include "libcommon/mutation.h"
 
 #include "libcommon/rng.h"
 
@@ -99,6 +100,7 @@ Vec3 sample_cosine_hemisphere(Vec2 u) {
     // Malley's method: uniform on the disk, lifted to the hemisphere, is cosine-distributed.
     // At the rim of the disk (u0 or u1 = 0) z is 0 and so is the pdf: callers treat pdf 0 as "no sample".
     Vec2 d = sample_concentric_disk(u);
+    if (IRIS_MUTANT(cosine_warp_squeezed)) d = {d.x * 0.97f, d.y * 0.97f};
     return {d.x, d.y, safe_sqrt(1.0f - d.x * d.x - d.y * d.y)};
 }
 

@@ -1,6 +1,7 @@
 // Spherical density maps: filter precomputation, splatting, flooring and the sampling tables
 // (see spheremap.h for the layout, the measures and the reasons).
 #include "libcommon/spheremap.h"
+#include "libcommon/mutation.h"
 
 #include <cmath>
 #include <stdexcept>
@@ -210,6 +211,7 @@ void SphereDistribution::build(const float* weights, int R, float* cdf, float* p
     float prev = 0.0f;
     for (int k = 0; k < n; ++k) {
         pdf[k] = (cdf[k] - prev) * per_sr;
+        if (IRIS_MUTANT(spheremap_pdf_skew) && (k & 1)) pdf[k] *= 1.1f;
         prev = cdf[k];
     }
 }

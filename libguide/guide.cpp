@@ -1,4 +1,5 @@
 #include "libguide/guide.h"
+#include "libcommon/mutation.h"
 
 #include <sys/mman.h>
 #include <tbb/blocked_range.h>
@@ -468,6 +469,7 @@ Vec3 Guide::sample_product(const Product& p, float uy, float* pdf, int* texel) c
     Texel dt;  // the texel whose density applies
     const Vec3 local = sphere_point_in_texel(i, j, fx, p.u_block, R, &dt.i, &dt.j);
     *pdf = product_pdf(p, dt);
+    if (IRIS_MUTANT(product_pdf_scale)) *pdf *= 1.1f;
     if (texel) *texel = texel_index(dt);
     return frame(p.cache).to_world(local);
 }
@@ -475,6 +477,7 @@ Vec3 Guide::sample_product(const Product& p, float uy, float* pdf, int* texel) c
 Vec3 Guide::sample(int c, Vec2 u, int row, float* pdf, int* texel) const {
     float p;
     const Vec3 local = at_resolution([&](auto R) { return packed_map::sample(map(c), R, u, row, per_sr_, &p, texel); });
+    if (IRIS_MUTANT(cache_pdf_scale)) p *= 1.1f;
     if (pdf) *pdf = p;
     return frame(c).to_world(local);
 }

@@ -2,7 +2,8 @@
 # The README's test command: installs dependencies (if root), builds in Release, runs the whole test
 # suite, then builds with AddressSanitizer + UndefinedBehaviorSanitizer and runs the unit tier under them.
 #   scripts/test.sh              everything (what CI runs)
-#   scripts/test.sh unit         one tier only (unit | statistical | pipeline | stress), Release build only
+#   scripts/test.sh unit         one tier only (unit | statistical | pipeline | stress | mutant), Release build only
+# The full run includes the mutant tier (tests/mutants: injected bugs that the tests must catch).
 #   IRIS_SANITIZE_ALL=1 scripts/test.sh     the whole suite under the sanitizers too (docs/ROBUSTNESS.md)
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -8,6 +8,8 @@
 // One test per case. With IRIS_ROBUSTNESS_TABLE=FILE set, each case also appends a Markdown table row
 // with the message the tool printed; scripts/robustness-table.sh turns that into docs/ROBUSTNESS.md.
 #include <gtest/gtest.h>
+
+#include <cstring>
 #include <hdf5.h>
 
 #include <cstdio>
@@ -32,7 +34,19 @@ struct BadInputCase {
     const char* problem;  // what is wrong, for the catalogue in docs/ROBUSTNESS.md
     const char* args;     // {in}/NAME: a prepared input file; {out}: the output path (in an empty folder)
     const char* mention;  // the error line must contain this (the flag, the file's name, or the reason)
+    // Where `mention` is only a file's name: the reason the line must give too (what is wrong with the file),
+    // so that any other error naming the file cannot pass.
+    const char* reason = nullptr;
 };
+
+// A mention that is only a path (it names a file, no reason): such a case needs `reason`.
+bool names_only_a_file(const std::string& m) {
+    static const char* const kExtensions[] = {".xml", ".h5", ".obj", ".exr", ".png", ".hdr", ".ply", ".serialized", ".jpg"};
+    if (m.find(' ') != std::string::npos) return false;
+    for (const char* e : kExtensions)
+        if (m.size() >= std::strlen(e) && m.compare(m.size() - std::strlen(e), std::string::npos, e) == 0) return true;
+    return false;
+}
 
 // Scene files: a small valid scene with one defect each. The base is a sphere lit by a rectangle.
 std::string scene_with(const std::string& shape_body, const std::string& extra = "") {
@@ -288,6 +302,10 @@ TEST_P(BadInput, OneLineErrorNoOutput) {
     const std::string& line = lines[0];
     EXPECT_EQ(line.rfind(tool_name + ": error: ", 0), 0u) << line;
     EXPECT_NE(line.find(c.mention), std::string::npos) << "the error should mention \"" << c.mention << "\": " << line;
+    if (c.reason) {
+        EXPECT_NE(line.find(c.reason), std::string::npos) << "the error should say \"" << c.reason << "\": " << line;
+    }
+    EXPECT_TRUE(c.reason || !names_only_a_file(c.mention)) << c.id << ": a case that names only the file needs the reason";
     EXPECT_LE(line.size(), 400u) << "an error line should be short enough to read";
     // Nothing written: the output folder stays empty (no output, no temporary file), and no input folder
     // gains a file either (an output path pointing there).
@@ -307,49 +325,49 @@ TEST_P(BadInput, OneLineErrorNoOutput) {
 // clang-format off
 const BadInputCase kCases[] = {
     // ---- Scene files (read by every tool that takes a scene; shown through render) ----
-    {"SceneMissing", "render", "scene file does not exist", "{in}/missing.xml -o {out}", "missing.xml"},
-    {"SceneNotXml", "render", "scene file is not XML", "{in}/text.h5 -o {out}", "text.h5"},
-    {"SceneMalformed", "render", "malformed XML (unclosed element)", "{in}/malformed.xml -o {out}", "malformed.xml"},
-    {"SceneTruncated", "render", "scene file cut off midway", "{in}/truncated.xml -o {out}", "truncated.xml"},
+    {"SceneMissing", "render", "scene file does not exist", "{in}/missing.xml -o {out}", "missing.xml", "cannot read the scene file"},
+    {"SceneNotXml", "render", "scene file is not XML", "{in}/text.h5 -o {out}", "text.h5", "malformed XML"},
+    {"SceneMalformed", "render", "malformed XML (unclosed element)", "{in}/malformed.xml -o {out}", "malformed.xml", "malformed XML: Start-end tags mismatch"},
+    {"SceneTruncated", "render", "scene file cut off midway", "{in}/truncated.xml -o {out}", "truncated.xml", "malformed XML"},
     {"SceneUnknownPlugin", "render", "unknown plugin (bsdf type velvet)", "{in}/unknown_plugin.xml -o {out}", "velvet"},
     {"SceneBumpmap", "render", "bumpmap without its displacement texture", "{in}/bumpmap.xml -o {out}", "bumpmap needs a displacement <texture>"},
     {"SceneMask", "render", "unsupported BSDF wrapper (mask)", "{in}/mask.xml -o {out}", "unsupported plugin \"mask\""},
     {"SceneTextureUnsupported", "render", "unsupported texture plugin (wireframe)", "{in}/texture_unsupported.xml -o {out}", "unsupported plugin \"wireframe\""},
-    {"TextureMissing", "render", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png"},
-    {"TextureGarbage", "render", "bitmap texture file that is not an image", "{in}/texture_garbage.xml -o {out}", "not_a_png.png"},
-    {"TextureHdrZeroSize", "render", "Radiance HDR texture of 0 x 0 pixels", "{in}/texture_zero_hdr.xml -o {out}", "texture_zero.hdr"},
-    {"TracePhotonsTextureMissing", "trace-photons", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png"},
+    {"TextureMissing", "render", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png", "cannot read texture file"},
+    {"TextureGarbage", "render", "bitmap texture file that is not an image", "{in}/texture_garbage.xml -o {out}", "not_a_png.png", "unrecognised image format"},
+    {"TextureHdrZeroSize", "render", "Radiance HDR texture of 0 x 0 pixels", "{in}/texture_zero_hdr.xml -o {out}", "texture_zero.hdr", "HDR image has an unsupported size"},
+    {"TracePhotonsTextureMissing", "trace-photons", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png", "cannot read texture file"},
     {"SceneMisspeltParameter", "render", "misspelt parameter (radus)", "{in}/misspelt.xml -o {out}", "radus"},
-    {"SceneBadNumber", "render", "a number that is not one", "{in}/bad_number.xml -o {out}", "bad_number.xml"},
-    {"SceneNanNumber", "render", "NaN as a parameter value", "{in}/nan_number.xml -o {out}", "nan_number.xml"},
+    {"SceneBadNumber", "render", "a number that is not one", "{in}/bad_number.xml -o {out}", "bad_number.xml", "bad number \"half\" for parameter \"radius\""},
+    {"SceneNanNumber", "render", "NaN as a parameter value", "{in}/nan_number.xml -o {out}", "nan_number.xml", "bad number \"nan\""},
     {"SceneNegativeRadius", "render", "negative sphere radius", "{in}/negative_radius.xml -o {out}", "radius"},
     {"SceneSphereOverflows", "render", "sphere scaled past float range (radius 0.5 x 1e38)", "{in}/huge_sphere.xml -o {out}", "not finite"},
-    {"SceneBadRgb", "render", "rgb value with two components", "{in}/bad_rgb.xml -o {out}", "bad_rgb.xml"},
+    {"SceneBadRgb", "render", "rgb value with two components", "{in}/bad_rgb.xml -o {out}", "bad_rgb.xml", "an <rgb> value is one or three numbers"},
     {"SceneWrongVersion", "render", "scene format version iris does not read", "{in}/wrong_version.xml -o {out}", "version"},
     {"SceneUnsetParameter", "render", "$r used but neither defined nor defaulted", "{in}/unset_parameter.xml -o {out}", "$r"},
     {"SceneBadDefine", "render", "-D without name=value", "{in}/valid.xml -D radius -o {out}", "-D"},
-    {"MeshMissing", "render", "OBJ mesh file does not exist", "{in}/missing_mesh.xml -o {out}", "no_such_mesh.obj"},
-    {"MeshBadIndex", "render", "OBJ face index out of range", "{in}/bad_index.xml -o {out}", "bad_index.obj"},
-    {"MeshGarbage", "render", "OBJ with garbage text and binary bytes", "{in}/garbage_obj.xml -o {out}", "garbage.obj"},
-    {"MeshNanVertex", "render", "OBJ vertex with NaN coordinate", "{in}/nan_vertex.xml -o {out}", "nan_vertex.obj"},
-    {"MeshInfVertex", "render", "OBJ vertex overflowing float (1e39)", "{in}/huge_vertex.xml -o {out}", "huge_vertex.obj"},
-    {"MeshEmpty", "render", "OBJ without faces", "{in}/empty_obj.xml -o {out}", "empty.obj"},
-    {"EnvmapMissing", "render", "envmap file does not exist", "{in}/envmap_missing.xml -o {out}", "no_such_sky.exr"},
-    {"EnvmapGarbage", "render", "envmap file that is not an image", "{in}/envmap_garbage.xml -o {out}", "not_an_exr.exr"},
-    {"EnvmapEmptyFile", "render", "envmap file of 0 bytes", "{in}/envmap_empty.xml -o {out}", "envmap_empty_file.exr"},
-    {"EnvmapHdrZeroSize", "render", "Radiance HDR envmap of 0 x 0 pixels", "{in}/envmap_zero_hdr.xml -o {out}", "envmap_zero.hdr"},
+    {"MeshMissing", "render", "OBJ mesh file does not exist", "{in}/missing_mesh.xml -o {out}", "no_such_mesh.obj", "cannot read mesh file"},
+    {"MeshBadIndex", "render", "OBJ face index out of range", "{in}/bad_index.xml -o {out}", "bad_index.obj", "face refers to vertex 9 but the file has 3"},
+    {"MeshGarbage", "render", "OBJ with garbage text and binary bytes", "{in}/garbage_obj.xml -o {out}", "garbage.obj", "bad number \"zwei\" in vertex"},
+    {"MeshNanVertex", "render", "OBJ vertex with NaN coordinate", "{in}/nan_vertex.xml -o {out}", "nan_vertex.obj", "vertex has a non-finite coordinate"},
+    {"MeshInfVertex", "render", "OBJ vertex overflowing float (1e39)", "{in}/huge_vertex.xml -o {out}", "huge_vertex.obj", "bad number \"1e39\" in vertex"},
+    {"MeshEmpty", "render", "OBJ without faces", "{in}/empty_obj.xml -o {out}", "empty.obj", "has no faces"},
+    {"EnvmapMissing", "render", "envmap file does not exist", "{in}/envmap_missing.xml -o {out}", "no_such_sky.exr", "cannot read envmap file"},
+    {"EnvmapGarbage", "render", "envmap file that is not an image", "{in}/envmap_garbage.xml -o {out}", "not_an_exr.exr", "unrecognised image format"},
+    {"EnvmapEmptyFile", "render", "envmap file of 0 bytes", "{in}/envmap_empty.xml -o {out}", "envmap_empty_file.exr", "empty image file"},
+    {"EnvmapHdrZeroSize", "render", "Radiance HDR envmap of 0 x 0 pixels", "{in}/envmap_zero_hdr.xml -o {out}", "envmap_zero.hdr", "HDR image has an unsupported size"},
     {"EnvmapNegativeScale", "render", "envmap scale -2", "{in}/envmap_negative_scale.xml -o {out}", "scale"},
     {"SpotNegativeCutoff", "render", "spot light cutoffAngle -5", "{in}/spot_cutoff.xml -o {out}", "cutoffAngle"},
     {"SpotBeamWiderThanCutoff", "render", "spot light beamWidth 30 > cutoffAngle 10", "{in}/spot_beam.xml -o {out}", "beamWidth"},
     {"DirectionalZeroDirection", "render", "directional light with direction (0, 0, 0)", "{in}/directional_zero.xml -o {out}", "direction"},
-    {"TracePhotonsEnvmapMissing", "trace-photons", "envmap file does not exist", "{in}/envmap_missing.xml -o {out}", "no_such_sky.exr"},
-    {"PlyTruncated", "render", "binary PLY cut short in its face list", "{in}/truncated_ply.xml -o {out}", "truncated.ply"},
-    {"PlyCorrupt", "render", "PLY header with an unknown property type", "{in}/corrupt_ply.xml -o {out}", "corrupt.ply"},
-    {"SerializedTruncated", "render", "serialized mesh cut in half", "{in}/truncated_serialized.xml -o {out}", "truncated.serialized"},
-    {"SerializedCorrupt", "render", "serialized mesh with scrambled zlib data", "{in}/corrupt_serialized.xml -o {out}", "corrupt.serialized"},
+    {"TracePhotonsEnvmapMissing", "trace-photons", "envmap file does not exist", "{in}/envmap_missing.xml -o {out}", "no_such_sky.exr", "cannot read envmap file"},
+    {"PlyTruncated", "render", "binary PLY cut short in its face list", "{in}/truncated_ply.xml -o {out}", "truncated.ply", "truncated?"},
+    {"PlyCorrupt", "render", "PLY header with an unknown property type", "{in}/corrupt_ply.xml -o {out}", "corrupt.ply", "unknown property type \"flaot\""},
+    {"SerializedTruncated", "render", "serialized mesh cut in half", "{in}/truncated_serialized.xml -o {out}", "truncated.serialized", "corrupt or truncated serialized mesh"},
+    {"SerializedCorrupt", "render", "serialized mesh with scrambled zlib data", "{in}/corrupt_serialized.xml -o {out}", "corrupt.serialized", "corrupt compressed data"},
     {"SerializedBadShapeIndex", "render", "shapeIndex 2 in a one-shape serialized file", "{in}/shape_index.xml -o {out}", "shapeIndex"},
-    {"TracePhotonsSceneMissing", "trace-photons", "scene file does not exist", "{in}/missing.xml -o {out}", "missing.xml"},
-    {"PlaceCachesSceneMalformed", "place-caches", "malformed scene", "{in}/malformed.xml --photon-map {in}/photons.h5 -o {out}", "malformed.xml"},
+    {"TracePhotonsSceneMissing", "trace-photons", "scene file does not exist", "{in}/missing.xml -o {out}", "missing.xml", "cannot read the scene file"},
+    {"PlaceCachesSceneMalformed", "place-caches", "malformed scene", "{in}/malformed.xml --photon-map {in}/photons.h5 -o {out}", "malformed.xml", "malformed XML"},
 
     // ---- render flags and inputs ----
     {"RenderNegativeSpp", "render", "--spp -1", "{in}/valid.xml --spp -1 -o {out}", "--spp"},
@@ -381,15 +399,15 @@ const BadInputCase kCases[] = {
     {"RenderSampleRangeLearn", "render", "--sample-range with --set learn=on (maps refit from earlier samples)", "{in}/caustic.xml --atlas {in}/atlas.h5 --set learn=on --set pilot=off --spp 4 --sample-range 0:2 -o {out}", "learn=on"},
     {"RenderUnknownFlag", "render", "a flag that does not exist", "{in}/valid.xml --no-such-flag -o {out}", "--no-such-flag"},
     {"RenderNoOutput", "render", "-o left out", "{in}/valid.xml", "--output"},
-    {"RenderAtlasMissing", "render", "--atlas file does not exist", "{in}/valid.xml --atlas {in}/missing.h5 -o {out}", "missing.h5"},
+    {"RenderAtlasMissing", "render", "--atlas file does not exist", "{in}/valid.xml --atlas {in}/missing.h5 -o {out}", "missing.h5", "No such file or directory"},
     {"RenderAtlasNotHdf5", "render", "--atlas is a text file", "{in}/valid.xml --atlas {in}/text.h5 -o {out}", "not an HDF5 file"},
-    {"RenderAtlasEmpty", "render", "--atlas is an empty file", "{in}/valid.xml --atlas {in}/empty.h5 -o {out}", "empty.h5"},
-    {"RenderAtlasTruncated", "render", "--atlas cut off midway", "{in}/valid.xml --atlas {in}/truncated_atlas.h5 -o {out}", "truncated_atlas.h5"},
+    {"RenderAtlasEmpty", "render", "--atlas is an empty file", "{in}/valid.xml --atlas {in}/empty.h5 -o {out}", "empty.h5", "not an HDF5 file"},
+    {"RenderAtlasTruncated", "render", "--atlas cut off midway", "{in}/valid.xml --atlas {in}/truncated_atlas.h5 -o {out}", "truncated_atlas.h5", "damaged or truncated HDF5 file"},
     {"RenderAtlasWrongKind", "render", "--atlas is a photon map", "{in}/valid.xml --atlas {in}/photons.h5 -o {out}", "iris-photon-map"},
-    {"RenderAtlasPlainHdf5", "render", "--atlas is an HDF5 file but no stage file", "{in}/valid.xml --atlas {in}/plain.h5 -o {out}", "plain.h5"},
+    {"RenderAtlasPlainHdf5", "render", "--atlas is an HDF5 file but no stage file", "{in}/valid.xml --atlas {in}/plain.h5 -o {out}", "plain.h5", "not an iris stage file"},
     {"RenderAtlasResolutionTooLarge", "render", "--atlas of 512 x 512 maps (the renderer packs at most 256)", "{in}/caustic.xml --atlas {in}/resolution512_atlas.h5 -o {out}", "resolution512_atlas.h5: attribute 'resolution' is 512 (must be 1..256)"},
     {"RenderAtlasOtherScene", "render", "--atlas made for another scene", "{in}/valid.xml --atlas {in}/furnace_atlas.h5 -o {out}", "another scene"},
-    {"RenderOutputDirMissing", "render", "output folder does not exist", "{in}/valid.xml -o /nonexistent-dir/x.exr", "/nonexistent-dir/x.exr"},
+    {"RenderOutputDirMissing", "render", "output folder does not exist", "{in}/valid.xml -o /nonexistent-dir/x.exr", "/nonexistent-dir/x.exr", "output directory does not exist"},
     {"RenderOutputIsDirectory", "render", "output path is a folder", "{in}/valid.xml -o {in}/adir", "directory"},
 
     // ---- trace-photons ----
@@ -406,7 +424,7 @@ const BadInputCase kCases[] = {
     {"TracePhotonsCutoff", "trace-photons", "--set photon-cutoff=1", "{in}/valid.xml --set photon-cutoff=1 -o {out}", "photon-cutoff"},
     {"TracePhotonsNegativeThreads", "trace-photons", "--threads -1", "{in}/valid.xml -t -1 -o {out}", "--threads"},
     {"TracePhotonsUnknownFlag", "trace-photons", "a flag that does not exist", "{in}/valid.xml --no-such-flag 3 -o {out}", "--no-such-flag"},
-    {"TracePhotonsOutputDirMissing", "trace-photons", "output folder does not exist", "{in}/valid.xml -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
+    {"TracePhotonsOutputDirMissing", "trace-photons", "output folder does not exist", "{in}/valid.xml -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5", "output directory does not exist"},
     {"TracePhotonsOutputIsDirectory", "trace-photons", "output path is a folder", "{in}/valid.xml -o {in}/adir", "directory"},
 
     // ---- place-caches ----
@@ -417,14 +435,14 @@ const BadInputCase kCases[] = {
     {"PlaceCachesZeroResolution", "place-caches", "--resolution 0x4", "{in}/valid.xml --photon-map {in}/photons.h5 --resolution 0x4 -o {out}", "--resolution"},
     {"PlaceCachesNegativeThreads", "place-caches", "--threads -1", "{in}/valid.xml --photon-map {in}/photons.h5 -t -1 -o {out}", "--threads"},
     {"PlaceCachesNoPhotons", "place-caches", "--photon-map left out", "{in}/valid.xml -o {out}", "--photon-map"},
-    {"PlaceCachesPhotonsMissing", "place-caches", "photon map does not exist", "{in}/valid.xml --photon-map {in}/missing.h5 -o {out}", "missing.h5"},
+    {"PlaceCachesPhotonsMissing", "place-caches", "photon map does not exist", "{in}/valid.xml --photon-map {in}/missing.h5 -o {out}", "missing.h5", "No such file or directory"},
     {"PlaceCachesPhotonsOtherScene", "place-caches", "photon map made for another scene", "{in}/valid.xml --photon-map {in}/photons.h5 -o {out}", "another scene"},
     {"PlaceCachesPhotonsAreAtlas", "place-caches", "an atlas given as the photon map", "{in}/valid.xml --photon-map {in}/atlas.h5 -o {out}", "iris-cache-atlas"},
     {"PlaceCachesPhotonsAreCaches", "place-caches", "cache points given as the photon map", "{in}/valid.xml --photon-map {in}/caches.h5 -o {out}", "iris-cache-points"},
     {"PlaceCachesPhotonsNotHdf5", "place-caches", "photon map is a text file", "{in}/valid.xml --photon-map {in}/text.h5 -o {out}", "not an HDF5 file"},
-    {"PlaceCachesPhotonsTruncated", "place-caches", "photon map cut off midway", "{in}/valid.xml --photon-map {in}/truncated_photons.h5 -o {out}", "truncated_photons.h5"},
+    {"PlaceCachesPhotonsTruncated", "place-caches", "photon map cut off midway", "{in}/valid.xml --photon-map {in}/truncated_photons.h5 -o {out}", "truncated_photons.h5", "damaged or truncated HDF5 file"},
     {"PlaceCachesOutputIsDirectory", "place-caches", "output path is a folder", "{in}/caustic.xml --photon-map {in}/photons.h5 -o {in}/adir", "directory"},
-    {"PlaceCachesOutputDirMissing", "place-caches", "output folder does not exist", "{in}/valid.xml --photon-map {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
+    {"PlaceCachesOutputDirMissing", "place-caches", "output folder does not exist", "{in}/valid.xml --photon-map {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5", "output directory does not exist"},
 
     // ---- fill-caches ----
     {"FillCachesZeroK", "fill-caches", "--set gather-count=0", "{in}/caches.h5 --photon-map {in}/photons.h5 --set gather-count=0 -o {out}", "gather-count"},
@@ -436,24 +454,24 @@ const BadInputCase kCases[] = {
     {"FillCachesZeroRadius", "fill-caches", "--set max-radius=0", "{in}/caches.h5 --photon-map {in}/photons.h5 --set max-radius=0 -o {out}", "max-radius"},
     {"FillCachesNegativeSigma", "fill-caches", "--set filter-sigma=-1", "{in}/caches.h5 --photon-map {in}/photons.h5 --set filter-sigma=-1 -o {out}", "filter-sigma"},
     {"FillCachesNegativeThreads", "fill-caches", "--threads -1", "{in}/caches.h5 --photon-map {in}/photons.h5 -t -1 -o {out}", "--threads"},
-    {"FillCachesCachesMissing", "fill-caches", "cache file does not exist", "{in}/missing.h5 --photon-map {in}/photons.h5 -o {out}", "missing.h5"},
-    {"FillCachesPhotonsMissing", "fill-caches", "photon map does not exist", "{in}/caches.h5 --photon-map {in}/missing.h5 -o {out}", "missing.h5"},
+    {"FillCachesCachesMissing", "fill-caches", "cache file does not exist", "{in}/missing.h5 --photon-map {in}/photons.h5 -o {out}", "missing.h5", "No such file or directory"},
+    {"FillCachesPhotonsMissing", "fill-caches", "photon map does not exist", "{in}/caches.h5 --photon-map {in}/missing.h5 -o {out}", "missing.h5", "No such file or directory"},
     {"FillCachesMismatchedScenes", "fill-caches", "caches and photons of different scenes", "{in}/caches.h5 --photon-map {in}/furnace_photons.h5 -o {out}", "another scene"},
     {"FillCachesPhotonsAreAtlas", "fill-caches", "an atlas given as the photon map", "{in}/caches.h5 --photon-map {in}/atlas.h5 -o {out}", "iris-cache-atlas"},
     {"FillCachesCachesArePhotons", "fill-caches", "a photon map given as the caches", "{in}/photons.h5 --photon-map {in}/photons.h5 -o {out}", "iris-photon-map"},
     {"FillCachesCachesNotHdf5", "fill-caches", "cache file is a text file", "{in}/text.h5 --photon-map {in}/photons.h5 -o {out}", "not an HDF5 file"},
-    {"FillCachesCachesEmpty", "fill-caches", "cache file is empty", "{in}/empty.h5 --photon-map {in}/photons.h5 -o {out}", "empty.h5"},
-    {"FillCachesCachesTruncated", "fill-caches", "cache file cut off midway", "{in}/truncated_caches.h5 --photon-map {in}/photons.h5 -o {out}", "truncated_caches.h5"},
-    {"FillCachesPhotonsTruncated", "fill-caches", "photon map cut off midway", "{in}/caches.h5 --photon-map {in}/truncated_photons.h5 -o {out}", "truncated_photons.h5"},
-    {"FillCachesCachesPlainHdf5", "fill-caches", "HDF5 file that is no stage file", "{in}/plain.h5 --photon-map {in}/photons.h5 -o {out}", "plain.h5"},
-    {"FillCachesOutputDirMissing", "fill-caches", "output folder does not exist", "{in}/caches.h5 --photon-map {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5"},
+    {"FillCachesCachesEmpty", "fill-caches", "cache file is empty", "{in}/empty.h5 --photon-map {in}/photons.h5 -o {out}", "empty.h5", "not an HDF5 file"},
+    {"FillCachesCachesTruncated", "fill-caches", "cache file cut off midway", "{in}/truncated_caches.h5 --photon-map {in}/photons.h5 -o {out}", "truncated_caches.h5", "damaged or truncated HDF5 file"},
+    {"FillCachesPhotonsTruncated", "fill-caches", "photon map cut off midway", "{in}/caches.h5 --photon-map {in}/truncated_photons.h5 -o {out}", "truncated_photons.h5", "damaged or truncated HDF5 file"},
+    {"FillCachesCachesPlainHdf5", "fill-caches", "HDF5 file that is no stage file", "{in}/plain.h5 --photon-map {in}/photons.h5 -o {out}", "plain.h5", "not an iris stage file"},
+    {"FillCachesOutputDirMissing", "fill-caches", "output folder does not exist", "{in}/caches.h5 --photon-map {in}/photons.h5 -o /nonexistent-dir/x.h5", "/nonexistent-dir/x.h5", "output directory does not exist"},
     {"FillCachesOutputIsDirectory", "fill-caches", "output path is a folder", "{in}/caches.h5 --photon-map {in}/photons.h5 -o {in}/adir", "directory"},
 
     // ---- inspect-caches ----
-    {"InspectMissing", "inspect-caches", "stage file does not exist", "{in}/missing.h5", "missing.h5"},
+    {"InspectMissing", "inspect-caches", "stage file does not exist", "{in}/missing.h5", "missing.h5", "No such file or directory"},
     {"InspectNotHdf5", "inspect-caches", "stage file is a text file", "{in}/text.h5", "not an HDF5 file"},
-    {"InspectPlainHdf5", "inspect-caches", "HDF5 file that is no stage file", "{in}/plain.h5", "plain.h5"},
-    {"InspectTruncated", "inspect-caches", "atlas cut off midway", "{in}/truncated_atlas.h5", "truncated_atlas.h5"},
+    {"InspectPlainHdf5", "inspect-caches", "HDF5 file that is no stage file", "{in}/plain.h5", "plain.h5", "not an iris stage file"},
+    {"InspectTruncated", "inspect-caches", "atlas cut off midway", "{in}/truncated_atlas.h5", "truncated_atlas.h5", "damaged or truncated HDF5 file"},
     {"InspectCacheOutOfRange", "inspect-caches", "--cache beyond the atlas", "{in}/atlas.h5 --cache 999999 -o {out}", "999999"},
     {"InspectCacheOfPhotons", "inspect-caches", "--cache on a photon map", "{in}/photons.h5 --cache 0", "atlas"},
     {"InspectPixelWithoutScene", "inspect-caches", "--pixel without --scene", "{in}/atlas.h5 --pixel 3,4", "--scene"},
@@ -468,9 +486,9 @@ const BadInputCase kCases[] = {
     {"MergeImagesOtherScene", "merge-images", "parts of different scenes", "{in}/part_a.exr {in}/part_other_scene.exr -o {out}", "another scene"},
     {"MergeImagesOtherSettings", "merge-images", "parts with different max-depth", "{in}/part_a.exr {in}/part_depth.exr -o {out}", "max-depth=3"},
     {"MergeImagesNotAPart", "merge-images", "a whole render given as a part", "{in}/part_a.exr {in}/image.exr -o {out}", "image.exr: not a part"},
-    {"MergeImagesTruncated", "merge-images", "a part cut off midway", "{in}/part_a.exr {in}/truncated_part_b.exr -o {out}", "truncated_part_b.exr"},
+    {"MergeImagesTruncated", "merge-images", "a part cut off midway", "{in}/part_a.exr {in}/truncated_part_b.exr -o {out}", "truncated_part_b.exr", "Early end of file"},
     {"MergeImagesSamePartTwice", "merge-images", "one part given twice", "{in}/part_a.exr {in}/part_a.exr {in}/part_b.exr -o {out}", "overlap"},
-    {"MergeImagesOutputDirMissing", "merge-images", "output folder does not exist", "{in}/part_a.exr {in}/part_b.exr -o /nonexistent-dir/x.exr", "/nonexistent-dir/x.exr"},
+    {"MergeImagesOutputDirMissing", "merge-images", "output folder does not exist", "{in}/part_a.exr {in}/part_b.exr -o /nonexistent-dir/x.exr", "/nonexistent-dir/x.exr", "output directory does not exist"},
 
     // ---- merge-photons ----
     {"MergePhotonsOverlap", "merge-photons", "parts whose path ranges overlap (0:1000, 500:1500)", "{in}/photons_a.h5 {in}/photons_overlap.h5 -o {out}", "overlap: both hold paths 500:1000"},
@@ -478,19 +496,19 @@ const BadInputCase kCases[] = {
     {"MergePhotonsOtherScene", "merge-photons", "parts of different scenes", "{in}/photons_a.h5 {in}/photons_other_scene.h5 -o {out}", "another scene"},
     {"MergePhotonsOtherSettings", "merge-photons", "parts with different photon-depth", "{in}/photons_a.h5 {in}/photons_depth.h5 -o {out}", "max_depth"},
     {"MergePhotonsNotAPart", "merge-photons", "a whole photon map given as a part", "{in}/photons_a.h5 {in}/photons.h5 -o {out}", "photons.h5: not a part"},
-    {"MergePhotonsTruncated", "merge-photons", "a part cut off midway", "{in}/photons_a.h5 {in}/truncated_photons_b.h5 -o {out}", "truncated_photons_b.h5"},
+    {"MergePhotonsTruncated", "merge-photons", "a part cut off midway", "{in}/photons_a.h5 {in}/truncated_photons_b.h5 -o {out}", "truncated_photons_b.h5", "damaged or truncated HDF5 file"},
 
     // ---- compare-images ----
-    {"CompareTestMissing", "compare-images", "test image does not exist", "{in}/missing.exr {in}/image.exr -o {out}", "missing.exr"},
-    {"CompareReferenceMissing", "compare-images", "reference image does not exist", "{in}/image.exr {in}/missing.exr -o {out}", "missing.exr"},
+    {"CompareTestMissing", "compare-images", "test image does not exist", "{in}/missing.exr {in}/image.exr -o {out}", "missing.exr", "No such file or directory"},
+    {"CompareReferenceMissing", "compare-images", "reference image does not exist", "{in}/image.exr {in}/missing.exr -o {out}", "missing.exr", "No such file or directory"},
     {"CompareNoReference", "compare-images", "reference left out", "{in}/image.exr -o {out}", "reference"},
-    {"CompareNotAnImage", "compare-images", "test image is a text file", "{in}/text.exr {in}/image.exr -o {out}", "text.exr"},
-    {"CompareTruncatedExr", "compare-images", "EXR cut off midway", "{in}/truncated_image.exr {in}/image.exr -o {out}", "truncated_image.exr"},
+    {"CompareNotAnImage", "compare-images", "test image is a text file", "{in}/text.exr {in}/image.exr -o {out}", "text.exr", "not an OpenEXR file"},
+    {"CompareTruncatedExr", "compare-images", "EXR cut off midway", "{in}/truncated_image.exr {in}/image.exr -o {out}", "truncated_image.exr", "Early end of file"},
     {"CompareSizeMismatch", "compare-images", "images of different sizes", "{in}/small.exr {in}/image.exr -o {out}", "size"},
     {"CompareBadMask", "compare-images", "--mask not x0,y0,x1,y1", "{in}/image.exr {in}/image.exr --mask 1,2 -o {out}", "--mask"},
     {"CompareBadCrop", "compare-images", "--crop not x0,y0,x1,y1", "{in}/image.exr --srgb-png {out} --crop 1,2", "--crop"},
     {"CompareCropOutside", "compare-images", "--crop beyond the image", "{in}/image.exr --srgb-png {out} --crop 0,0,9999,9999", "--crop"},
-    {"CompareOutputDirMissing", "compare-images", "error image folder does not exist", "{in}/image.exr {in}/image.exr -o /nonexistent-dir/e.png", "/nonexistent-dir/e.png"},
+    {"CompareOutputDirMissing", "compare-images", "error image folder does not exist", "{in}/image.exr {in}/image.exr -o /nonexistent-dir/e.png", "/nonexistent-dir/e.png", "output directory does not exist"},
 };
 // clang-format on
 

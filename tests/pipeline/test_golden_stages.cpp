@@ -4,17 +4,13 @@
 // *stored golden input* of the previous stage (so a change in one stage shows in that stage's test
 // only) and compares with the stored output.
 //
-// What the tolerances must do: pass when the code is unchanged but built by another compiler or run
-// against another Embree/TBB/libm (float results that differ in the last bits: the rare path whose
-// Russian-roulette or reflect/refract decision falls the other way diverges from there on), and fail
-// for a real change in what a stage computes. So: no bit-identity anywhere; per-item matching with
-// small tolerances where the stage is a deterministic function of its input (most items reproduce,
-// a few may diverge), and statistics with bounds derived from the data where it is not (images).
-// Checked once by running these tests against the four tools built with -march=native
-// -ffp-contract=fast (FMA: different rounding almost everywhere): photons and caches all reproduced
-// (100 % twins), the maps to an L1 distance of 2e-7, the image to relMSE 0.003 (bound 0.022) with
-// channel means within 0.5 %; while changing the seed of trace-photons or place-caches, the floor of
-// fill-caches or the render's depth fails the corresponding test.
+// What the tolerances must do: pass when the code is unchanged and built as CI builds it on the machine
+// kind CI uses (measured: the four stages are deterministic, the same for -t 1 and -t 2, the render
+// bit-identical), and fail for any real change in what a stage computes -- a 1 % change, one bounce
+// less. So: per-item matching to float tolerance, >= 99 % of items (the rest: a decision that a last-bit
+// difference turns), and image means to 1e-4. Built by another compiler or with FMA contraction, most
+// render paths diverge and these tests fail: regenerate for that build (PROVENANCE records the commit).
+// Mutants (tests/mutants/README.md) show each test failing: max_depth_one_short, mirrored_cache_map...
 // If the scene or stages.args change, or a stage's results change on purpose, regenerate (see
 // regenerate.sh for when and how) -- the first test says so.
 #include <gtest/gtest.h>
@@ -133,7 +129,7 @@ TEST(GoldenStages, FilesMatchTheSceneAndTheirArguments) {
 
 // trace-photons from the scene: the same photons. Every photon is a deterministic function of (seed,
 // path index), so the photons of every path whose decisions do not flip under rounding reappear
-// within float rounding: >= 95 % of the golden photons must have a twin (position within 1e-4 of the
+// within float rounding: >= 99 % of the golden photons must have a twin (position within 1e-4 of the
 // scene's size, direction within 1e-3, power within 1e-3 relative) and vice versa. A real change --
 // another random-number use, another sampling routine, another flux -- leaves next to no twins. The
 // totals are checked too, with tolerances that even 5 % of diverged paths would keep (count and power
@@ -172,13 +168,13 @@ TEST(GoldenStages, TracePhotonsReproducesTheGoldenPhotons) {
     const double gn = matched_fraction(g.position, n.position, r, twin(g, n));
     const double ng = matched_fraction(n.position, g.position, r, twin(n, g));
     std::printf("photons: golden %zu, now %zu; twins %.4f / %.4f\n", g.size(), n.size(), gn, ng);
-    EXPECT_GE(gn, 0.95) << "golden photons without a twin in the new map; " << kRegenerate;
-    EXPECT_GE(ng, 0.95) << "new photons without a twin in the golden map; " << kRegenerate;
+    EXPECT_GE(gn, 0.99) << "golden photons without a twin in the new map; " << kRegenerate;
+    EXPECT_GE(ng, 0.99) << "new photons without a twin in the golden map; " << kRegenerate;
 }
 
 // place-caches from the scene and the golden photons: the same caches. Placement is deterministic given
 // the photons (seeded shuffle, grid over the scene's bounds, camera rays), so the same tolerance logic
-// as for photons: >= 95 % twins each way (position within 1e-4 of the scene's size, normal within
+// as for photons: >= 99 % twins each way (position within 1e-4 of the scene's size, normal within
 // ~0.5 degree, same origin), count within 2 %, camera caches within 2.
 TEST(GoldenStages, PlaceCachesReproducesTheGoldenCaches) {
     TempDir dir;
@@ -204,8 +200,8 @@ TEST(GoldenStages, PlaceCachesReproducesTheGoldenCaches) {
     const double gn = matched_fraction(g.position, n.position, r, twin(g, n));
     const double ng = matched_fraction(n.position, g.position, r, twin(n, g));
     std::printf("caches: golden %zu, now %zu; twins %.4f / %.4f\n", g.size(), n.size(), gn, ng);
-    EXPECT_GE(gn, 0.95) << "golden caches without a twin; " << kRegenerate;
-    EXPECT_GE(ng, 0.95) << "new caches without a twin; " << kRegenerate;
+    EXPECT_GE(gn, 0.99) << "golden caches without a twin; " << kRegenerate;
+    EXPECT_GE(ng, 0.99) << "new caches without a twin; " << kRegenerate;
 }
 
 // fill-caches from the golden caches and photons: the same maps. Filling is deterministic (no random
@@ -213,9 +209,9 @@ TEST(GoldenStages, PlaceCachesReproducesTheGoldenCaches) {
 // float rounding -- unless a photon sits exactly at the k-th-nearest or normal-threshold boundary
 // and flips, which moves one photon's share (~1/k of the mass) between texels. Per cache the L1
 // distance of the texel probabilities, sum |p - q| 4 pi / N (0 = same, 2 = disjoint), must be
-// <= 0.05 for >= 95 % of the caches and <= 0.01 on average; a changed filter, floor, splat or gather
+// <= 1e-4 for >= 99 % of the caches and <= 1e-5 on average; a changed filter, floor, splat or gather
 // moves it by far more (the floor alone is 0.1 of the mass). Usable flags and photon counts must agree
-// for >= 95 % of caches.
+// for >= 99 % of caches.
 TEST(GoldenStages, FillCachesReproducesTheGoldenAtlas) {
     TempDir dir;
     run_stage(tool("fill-caches") + " " + golden("caches.h5") + " -q --photon-map " + golden("photons.h5") + " " +
@@ -239,63 +235,100 @@ TEST(GoldenStages, FillCachesReproducesTheGoldenAtlas) {
         for (size_t k = 0; k < g.texels(); ++k) l1 += std::abs(double(n.pdf_row(c)[k]) - double(g.pdf_row(c)[k])) * texel_sr;
         sum_l1 += l1;
         worst = std::max(worst, l1);
-        close += l1 <= 0.05;
+        close += l1 <= 1e-4;
     }
     ASSERT_GT(usable, g.size() / 2) << "the golden atlas should have mostly usable caches";
     std::printf("atlas: %zu caches, %zu usable; mean L1 %.3g, worst %.3g\n", g.size(), usable, sum_l1 / usable, worst);
-    EXPECT_GE(double(same_usable), 0.95 * g.size()) << "usable flags; " << kRegenerate;
-    EXPECT_GE(double(same_count), 0.95 * g.size()) << "photon counts; " << kRegenerate;
-    EXPECT_GE(double(close), 0.95 * usable) << "maps with L1 distance > 0.05; " << kRegenerate;
-    EXPECT_LE(sum_l1 / usable, 0.01) << "mean L1 distance of the maps; " << kRegenerate;
+    EXPECT_GE(double(same_usable), 0.99 * g.size()) << "usable flags; " << kRegenerate;
+    EXPECT_GE(double(same_count), 0.99 * g.size()) << "photon counts; " << kRegenerate;
+    EXPECT_GE(double(close), 0.99 * usable) << "maps with L1 distance > 1e-4; " << kRegenerate;
+    EXPECT_LE(sum_l1 / usable, 1e-5) << "mean L1 distance of the maps; " << kRegenerate;
 }
 
-// render from the scene and the golden atlas: the same image, statistically. With the same seed the
-// images match up to the paths that rounding diverts; at worst (every path diverted) the new image is
-// an independent render of the same expectation. The bounds hold even then:
-//   - relMSE (compare-images' definition) below twice its expectation for two independent renders,
-//     E = mean over pixels and channels of 2 var / (ref^2 + 0.01), from the golden variance layer;
-//   - each channel's image mean within 4.5 standard errors of the difference (from both variance
-//     layers, ~0.7 % of the mean here: a change of 3 % in brightness fails) and within 3 %.
+// render from the scene and the golden atlas: the same image, to float tolerance. Determinism measured
+// on the CI machine kind (the golden command run with -t 1 and -t 2 against each other and against
+// the golden file made by the same commit): bit-identical, as documented for a fixed --spp at any
+// thread count. The bound leaves room only for rounding: each pixel and channel within 1e-5 relative
+// (+1e-6 absolute, for black pixels) of the golden value, with at most 0.5 % of the pixel-channels
+// allowed beyond (a path whose roulette or reflect/refract decision a last-bit difference turns; one
+// such path moves one pixel), and each channel's image mean within 1e-4 relative. A 1 % change in
+// what the renderer computes moves every lit pixel by ~1 %, a thousand times the tolerance; one bounce
+// less (max-depth=7 instead of the scene's 8, RenderWithOneBounceLessFails below) moves the means by
+// ~2-3 %. Another compiler or FMA contraction (-march=native -ffp-contract=fast) diverts most paths
+// and fails this test: the golden files are per machine kind and compiler, and PROVENANCE says which
+// commit made them.
+struct RenderAgreement {
+    double worst_mean_rel = 0;  // largest relative difference of a channel's image mean
+    double beyond = 0;          // fraction of pixel-channels beyond the per-pixel tolerance
+    std::string log;
+    bool ok() const { return worst_mean_rel <= 1e-4 && beyond <= 0.005; }
+};
+
+RenderAgreement render_agreement(const Image& n, const Image& g) {
+    RenderAgreement a;
+    const size_t px = size_t(g.width) * g.height;
+    size_t out = 0;
+    const char* names[3] = {"R", "G", "B"};
+    for (int c = 0; c < 3; ++c) {
+        const int gi = g.channel_index(names[c]), ni = n.channel_index(names[c]);
+        if (gi < 0 || ni < 0) {
+            a.worst_mean_rel = INFINITY;
+            continue;
+        }
+        double mg = 0, mn = 0;
+        for (size_t i = 0; i < px; ++i) {
+            const double vg = g.data[gi][i], vn = n.data[ni][i];
+            mg += vg;
+            mn += vn;
+            out += std::abs(vn - vg) > 1e-5 * std::abs(vg) + 1e-6;
+        }
+        const double rel = std::abs(mn - mg) / std::max(mg, 1e-30);
+        a.worst_mean_rel = std::max(a.worst_mean_rel, rel);
+        char buf[160];
+        std::snprintf(buf, sizeof buf, "render %s: golden mean %.6f, now %.6f (relative difference %.3g)\n", names[c],
+                      mg / double(px), mn / double(px), rel);
+        a.log += buf;
+    }
+    a.beyond = double(out) / double(3 * px);
+    char buf[120];
+    std::snprintf(buf, sizeof buf, "render: %.4f of the pixel-channels beyond 1e-5 relative (bound 0.005)\n", a.beyond);
+    a.log += buf;
+    return a;
+}
+
+// Renders the golden render's command (plus `extra`) from the golden atlas into DIR/r.exr.
+Image render_golden_command(const TempDir& dir, const std::string& extra) {
+    run_stage(tool("render") + " " + scene_path() + " -q --atlas " + golden("atlas.h5") + " " + args("render") + " " +
+              extra + " -o " + dir.file("r.exr"));
+    return fs::exists(dir.file("r.exr")) ? read_exr(dir.file("r.exr")) : Image{};
+}
+
 TEST(GoldenStages, RenderReproducesTheGoldenImage) {
     TempDir dir;
-    run_stage(tool("render") + " " + scene_path() + " -q --atlas " + golden("atlas.h5") + " " + args("render") +
-              " -o " + dir.file("r.exr"));
+    const Image n = render_golden_command(dir, "");
     if (HasFatalFailure()) return;
     const Image g = read_exr(golden("render.exr"));
-    const Image n = read_exr(dir.file("r.exr"));
     ASSERT_EQ(n.width, g.width);
     ASSERT_EQ(n.height, g.height);
     EXPECT_EQ(n.metadata.at("iris:spp"), g.metadata.at("iris:spp"));
     EXPECT_EQ(n.metadata.at("iris:mode"), g.metadata.at("iris:mode"));
-    const size_t px = size_t(g.width) * g.height;
-    std::vector<float> tg(px * 3), tn(px * 3);
-    double expected_rel_mse = 0;
-    const char* names[3] = {"R", "G", "B"};
-    const char* vnames[3] = {"variance.R", "variance.G", "variance.B"};
-    for (int c = 0; c < 3; ++c) {
-        const int gi = g.channel_index(names[c]), ni = n.channel_index(names[c]);
-        const int gv = g.channel_index(vnames[c]), nv = n.channel_index(vnames[c]);
-        ASSERT_TRUE(gi >= 0 && ni >= 0 && gv >= 0 && nv >= 0) << "the golden render needs --variance";
-        double mg = 0, mn = 0, vg = 0, vn = 0;
-        for (size_t i = 0; i < px; ++i) {
-            tg[3 * i + c] = g.data[gi][i];
-            tn[3 * i + c] = n.data[ni][i];
-            mg += g.data[gi][i];
-            mn += n.data[ni][i];
-            vg += g.data[gv][i];
-            vn += n.data[nv][i];
-            expected_rel_mse += 2 * g.data[gv][i] / (double(g.data[gi][i]) * g.data[gi][i] + 0.01) / double(3 * px);
-        }
-        const double se = std::sqrt(vg + vn) / double(px);
-        mg /= double(px);
-        mn /= double(px);
-        std::printf("render %s: golden mean %.5f, now %.5f (standard error of the difference %.2g)\n", names[c], mg, mn, se);
-        EXPECT_NEAR(mn, mg, 4.5 * se) << "image mean, channel " << names[c] << "; " << kRegenerate;
-        EXPECT_NEAR(mn, mg, 0.03 * mg) << "image mean, channel " << names[c] << "; " << kRegenerate;
-    }
-    const ImageMetrics m = compare_images(tn, tg, g.width, g.height);
-    std::printf("render: relMSE %.3g (bound %.3g)\n", m.rel_mse, 2 * expected_rel_mse);
-    EXPECT_LE(m.rel_mse, 2 * expected_rel_mse) << kRegenerate;
+    const RenderAgreement a = render_agreement(n, g);
+    std::printf("%s", a.log.c_str());
+    EXPECT_LE(a.worst_mean_rel, 1e-4) << a.log << kRegenerate;
+    EXPECT_LE(a.beyond, 0.005) << a.log << kRegenerate;
+}
+
+// The test above bites: one bounce less (a real ~2 % energy loss on this closed box) fails it.
+TEST(GoldenStages, RenderWithOneBounceLessFails) {
+    TempDir dir;
+    const Image n = render_golden_command(dir, cli::max_depth(7));
+    if (HasFatalFailure()) return;
+    const Image g = read_exr(golden("render.exr"));
+    ASSERT_EQ(g.metadata.at("iris:max_depth"), "8") << "the golden scene's depth changed; adapt this test";
+    ASSERT_EQ(n.width, g.width);
+    const RenderAgreement a = render_agreement(n, g);
+    std::printf("max-depth=7:\n%s", a.log.c_str());
+    EXPECT_FALSE(a.ok()) << "the golden render test cannot tell one bounce less:\n" << a.log;
 }
 
 }  // namespace

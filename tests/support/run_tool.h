@@ -50,3 +50,18 @@ struct TempDir {
 };
 
 }  // namespace iris::test
+
+namespace iris::test::cli {
+// The stage flags that the newer tests write, in one place: when the command line changes (named
+// settings, `--set name=value`), adapt these and not the tests.
+inline std::string set(const std::string& name, const std::string& value) { return "--set " + name + "=" + value; }
+inline std::string photon_paths(long n) { return set("photon-paths", std::to_string(n)); }        // trace-photons
+inline std::string photon_map(const std::string& f) { return "--photon-map " + f; }              // place-, fill-caches
+inline std::string cache_count(int n) { return set("cache-count", std::to_string(n)); }           // place-caches
+inline std::string gather_count(int k) { return set("gather-count", std::to_string(k)); }         // fill-caches
+inline std::string map_resolution(int r) { return set("map-resolution", std::to_string(r)); }     // fill-caches
+inline std::string direct_photons() { return set("direct-photons", "on"); }                      // fill-caches
+inline std::string mode(const std::string& m) { return set("mode", m); }                         // render
+inline std::string caustics(const std::string& v) { return set("caustics", v); }                 // render
+inline std::string max_depth(int d) { return set("max-depth", std::to_string(d)); }              // render
+}  // namespace iris::test::cli

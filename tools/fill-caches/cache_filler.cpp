@@ -1,4 +1,5 @@
 #include "tools/fill-caches/cache_filler.h"
+#include "libcommon/mutation.h"
 
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/global_control.h>
@@ -118,7 +119,9 @@ CacheAtlas fill_caches(const CachePoints& caches, const PhotonMap& photons, doub
                 if (skip_direct && photons.bounces[p] == 0) continue;
                 float power = luminance(photons.power[p]);
                 if (!(power > 0)) continue;
-                s.map.splat(frame.to_local(photons.direction[p]), power);
+                Vec3 local = frame.to_local(photons.direction[p]);
+                if (IRIS_MUTANT(mirrored_cache_map)) local = {-local.x, -local.y, local.z};
+                s.map.splat(local, power);
                 total_power += power;
                 if (flags && photons.caustic[p]) caustic_power += power;
                 ++used;

@@ -1,4 +1,5 @@
 #include "tools/render/caustics.h"
+#include "libcommon/mutation.h"
 
 #include <tbb/parallel_for.h>
 
@@ -62,7 +63,8 @@ void CausticTracer::splat(const SurfaceHit& hit, const Bsdf& bsdf, Vec3 w_light,
     if (shadow.tmax > 0 && scene_.occluded(shadow)) return;
     const float geometry = std::abs(dot(w_cam, hit.ng)) / std::abs(dot(w_light, hit.ng)) * pixels_per_plane_area_ /
                            (dist * dist * cos_fwd * cos_fwd * cos_fwd);
-    const RGB c = beta * f * geometry;
+    RGB c = beta * f * geometry;
+    if (IRIS_MUTANT(caustic_bias)) c *= 1.05f;
     if (!is_finite(c)) {
         *bad = true;
         return;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "libcommon/mutation.h"
 #include "libcommon/rng.h"
 #include "libcommon/sampling.h"
 #include "tools/render/connections.h"
@@ -188,6 +189,7 @@ struct Walk {
             else if (prev_delta && ps.connect && last_y.joinable)
                 w = connection_path_weight(ps.paths_per_vertex, light_emit_density(scene, uint32_t(light_index), ray.d),
                                            last_y.cos_chain, last_y.cos_x, last_y.dist2, last_y.p_x, last_y.p_y);
+            if (IRIS_MUTANT(connection_weight_one) && prev_delta && ps.connect && last_y.joinable) w = 1.f;
             L += beta * le * w;
         }
     }
@@ -257,7 +259,7 @@ void Walk::look_up_cache(Vertex& v) {
     // NEE's BSDF value (the rest of NEE follows once the cache's rows are loading).
     if (v.light_found) {
         v.wo_light = hit.frame.to_local(v.ls.wi);
-        if (consistent_side(v.ls.wi, hit.ng, v.wo_light.z)) v.f_light = bsdf_eval(*v.bsdf, v.wi, v.wo_light);
+        if (consistent_side(v.ls.wi, hit.ng, v.wo_light.z)) v.f_light = bsdf_eval(*v.bsdf, v.wi, v.wo_light, IRIS_MUTANT(nee_importance_mode) ? TransportMode::Importance : TransportMode::Radiance);
     }
     if (v.cache >= 0) {
         v.alpha = ps.mode == GuideMode::NeeCache ? 0.0f : guide->bsdf_fraction(v.cache);
@@ -332,6 +334,7 @@ void Walk::next_event(Vertex& v) {
         const float p_bsdf = bsdf_pdf(*v.bsdf, v.wi, v.wo_light);
         const float p_mix = v.cache < 0 ? p_bsdf : mix_from(v, v.wo_light, p_bsdf, cache_pdf(v, v.nee_texel));
         w = power_heuristic(ls.pdf, p_mix);
+        if (IRIS_MUTANT(mis_weight_one)) w = 1.f;
     }
     L += beta * v.f_light * ls.radiance * (w / ls.pdf);
 }

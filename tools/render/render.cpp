@@ -1,5 +1,7 @@
 #include "tools/render/render.h"
 
+#include "libcommon/mutation.h"
+
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
@@ -77,6 +79,7 @@ Setup resolve(const Scene& scene, const RenderOptions& opt) {
     ps.guide_vertices = opt.guide_vertices < 0 ? 1 : opt.guide_vertices == 0 ? 1 << 30 : opt.guide_vertices;
     if (!opt.guide && opt.mode == GuideMode::BsdfCache) ps.mode = GuideMode::BsdfCache;
     ps.max_depth = opt.max_depth >= -1 ? opt.max_depth : scene.defaults.max_depth;
+    if (IRIS_MUTANT(max_depth_one_short) && ps.max_depth > 1) --ps.max_depth;
     ps.rr_depth = opt.rr_depth >= -1 ? opt.rr_depth : scene.defaults.rr_depth;
     if (ps.rr_depth < 0) ps.rr_depth = 1 << 30;
     if (opt.rr_threshold != -1 && !(opt.rr_threshold > 0 && opt.rr_threshold <= 1))

@@ -1,4 +1,5 @@
 #include "tools/trace-photons/photon_tracer.h"
+#include "libcommon/mutation.h"
 
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
@@ -115,7 +116,7 @@ PhotonMap trace_photons(const Scene& scene, const PhotonOptions& o, PhotonStats*
             photons.position.push_back(ph.position);
             photons.direction.push_back(ph.direction);
             photons.normal.push_back(ph.normal);
-            photons.power.push_back(ph.power);
+            photons.power.push_back(IRIS_MUTANT(photon_power_scale) ? ph.power * 1.05f : ph.power);
             photons.bounces.push_back(ph.bounces);
             photons.caustic.push_back(ph.caustic);
         }
