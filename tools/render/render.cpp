@@ -364,8 +364,8 @@ void Render::add_part_metadata(Image& img) const {
     img.metadata["iris:sample_range"] = std::to_string(opt.sample_begin) + ":" + std::to_string(opt.sample_end);
     img.metadata["iris:spp_total"] = std::to_string(target_spp);
     img.metadata["iris:light_paths_per_sample"] = std::to_string(light_paths_per_sample);
-    img.metadata["iris:variance_layer"] = opt.variance_layer ? "1" : "0";
-    img.metadata["iris:samples_layer"] = opt.samples_layer ? "1" : "0";
+    img.metadata["iris:variance_layer"] = std::to_string(int(opt.variance_layer));
+    img.metadata["iris:samples_layer"] = std::to_string(int(opt.samples_layer));
     char buf[512];
     std::snprintf(buf, sizeof buf,
                   "resolution %dx%d; seed %llu; mode %s; max_depth %d; rr_depth %d; rr_threshold %.9g; "
