@@ -556,7 +556,7 @@ CacheAtlas Guide::refined_atlas() const {
             // The current pmf is already floored: build() only normalises it and writes both tables.
             SphereDistribution::build(&current_pmf_[c * N], a.resolution, &a.cdf[c * N], &a.pdf[c * N]);
             // A cache refit from enough samples in all (photons and the path samples' effective
-            // count) is usable; its photon_count holds both, the weight a later --learn render gives it.
+            // count) is usable; its photon_count holds both, the weight a later learn=on render gives it.
             const double photons = a.usable[c] ? double(a.photon_count[c]) : 0.0;
             if (path_used_[c] > 0 && photons + path_effective_[c] >= double(kMinPathSamples)) {
                 a.usable[c] = 1;

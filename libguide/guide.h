@@ -400,7 +400,7 @@ private:
                    const PointTree& tree) const;
     void build_grid(const std::vector<uint32_t>& claimants);
     // BSDF share of a cache allowed to guide whose map is pdf (N densities per sr): the constant
-    // --bsdf-fraction, else the chooser's, 1 (not guiding) where its predicted gain is below min_gain.
+    // setting bsdf-fraction, else the chooser's, 1 (not guiding) where its predicted gain is below min_gain.
     float choose_alpha(const BsdfFractionChooser& chooser, const float* pdf) const;
     // summary_.guiding and mean_alpha from the caches' BSDF shares as they stand.
     void summarise_guiding();

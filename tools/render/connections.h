@@ -1,5 +1,5 @@
 // Caustic connections: light reflected off a caustic, by joining camera paths to light-traced caustic
-// vertices (render --connect).
+// vertices (render's setting connect).
 //
 // Measured on the seed scenes (render at 64 spp, guided as `auto` chooses, the caustics seen directly
 // light-traced; variance layers): after guiding, most of the remaining noise comes from paths whose

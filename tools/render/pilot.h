@@ -23,12 +23,12 @@ struct GuideDecision {
         double rel_variance_rest = 0;   // the same without the caustic class (what remains when light-traced)
         double seconds_per_sample = 0;  // wall seconds per path sample, all threads working
     };
-    std::vector<Candidate> candidates;  // [0]: the setting the others are measured against (unguided in --mode auto)
+    std::vector<Candidate> candidates;  // [0]: the setting the others are measured against (unguided where guiding is weighed)
     int chosen = 0;
     double efficiency_ratio = 1;  // (noise x time) of candidate 0 without light tracing / the chosen combination's
     double pilot_seconds = 0;
     int pilot_spp = 0;            // samples per pilot pixel, each candidate
-    bool guided_choice = true;    // the candidates differ in guiding (--mode auto), else only light tracing was weighed
+    bool guided_choice = true;    // the candidates differ in guiding (pilot=on), else only light tracing was weighed
     // The caustic light tracer, where it was weighed (light_weighed):
     bool light_weighed = false;
     bool light_trace = false;           // chosen
@@ -66,8 +66,8 @@ inline constexpr double kConnectTolerance = 1.25;
 inline constexpr double kMinCausticShare = 0.001;
 
 // The guided settings the automatic mode weighs against unguided sampling, from the resolved settings
-// `guided`: those themselves, and where `expand` (the user fixed none of --guide-vertices, --rr-depth,
-// --rr-threshold) also every non-specular vertex guided with the roulette threshold
+// `guided`: those themselves, and where `expand` (the user set none of guide-vertices, rr-depth,
+// rr-threshold) also every non-specular vertex guided with the roulette threshold
 // kDeepRouletteThreshold. In closed scenes with caustics (the glass spheres, the mirror boxes) most of
 // the unguided variance comes from deep paths that find a light through glass or a mirror: guided at
 // every vertex and not cut short by roulette they become frequent instead of rare, and that setting
@@ -94,7 +94,7 @@ size_t pick_candidate(const std::vector<double>& ratio, const std::vector<int>& 
 // without them, they must pay for it too, and are taken only kConnectMargin ahead.
 bool take_connections(double with, double without, bool without_traced);
 // Runs the pilot (about budget_seconds, at least a minimum number of samples) for each candidate
-// (candidates[0] is the one the others are measured against: unguided in --mode auto) and, where
+// (candidates[0] is the one the others are measured against: unguided where guiding is weighed) and, where
 // `light` is given, a light-tracing pilot of the caustic class; picks the combination predicted to be
 // most efficient. With light tracing, the number of light paths per pixel and pass F trades the light
 // tracer's noise v_l / F against its cost F t_l: the pilot takes F = sqrt(v_l t / (v t_l)) (v, t: the

@@ -114,7 +114,7 @@ struct Render {
     // The clock starts before the pilot: its time is part of the budget (equal-time comparisons).
     const std::chrono::steady_clock::time_point start = std::chrono::steady_clock::now();
     // Caustics seen directly (caustics.h): light-traced where that is possible and asked for; in Auto
-    // the pilot weighs it (and with --mode auto, guiding too) and chooses the light paths per pixel.
+    // the pilot weighs it (and with pilot=on, guiding too) and chooses the light paths per pixel.
     const bool light_possible;
     const CausticTracer caustic_tracer;
     double light_paths_per_pixel = 0;

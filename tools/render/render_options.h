@@ -40,7 +40,7 @@ struct RenderOptions {
     double light_paths_per_pixel = 0;  // light paths per pixel and pass; 0 = 1 (On) or the pilot's choice (Auto)
     // Caustic connections (connections.h): camera paths join light-traced vertices after specular chains
     // (with the light tracer's paths where caustics are light-traced, else one light path per pixel):
-    // Off, On, or Auto (where the pilot of --mode auto predicts a gain; otherwise off).
+    // Off, On, or Auto (where the pilot (pilot=on) predicts a gain; otherwise off).
     enum class Connect : uint8_t { Off, On, Auto } connect = Connect::Off;
     // How a pixel's samples draw the camera's dimensions: Sobol (each pixel's samples stratify the
     // pixel filter's 2D sample and the first vertex's continuation and light samples: owen_sobol_2d) or
@@ -62,7 +62,7 @@ struct RenderOptions {
     // be a fixed-spp render whose sampling does not depend on a measurement (no time budget, no pilot).
     int sample_begin = 0, sample_end = 0;
     // Settings that change the samples and that render_image does not see (the atlas's fingerprint,
-    // --bsdf-fraction, --min-gain): recorded in a part's "iris:settings" so that merge refuses parts
+    // settings bsdf-fraction, min-gain): recorded in a part's "iris:settings" so that merge refuses parts
     // of different renders.
     std::string settings_extra;
 };
