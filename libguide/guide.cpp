@@ -31,7 +31,7 @@ GuideMode parse_guide_mode(const std::string& s) {
     if (s == "nee+cache") return GuideMode::NeeCache;
     if (s == "bsdf+cache") return GuideMode::BsdfCache;
     if (s == "nee+bsdf+cache") return GuideMode::NeeBsdfCache;
-    throw std::runtime_error("--mode must be nee+bsdf, nee+cache, bsdf+cache or nee+bsdf+cache, got \"" + s + "\"");
+    throw std::runtime_error("mode must be nee+bsdf, nee+cache, bsdf+cache or nee+bsdf+cache, got \"" + s + "\"");
 }
 
 const char* guide_mode_name(GuideMode m) {
@@ -67,8 +67,8 @@ HugeMemory allocate_huge(size_t bytes) {
 void FreeHuge::operator()(void* p) const { std::free(p); }
 
 Guide::Guide(CacheAtlas atlas, const GuideOptions& o) : atlas_(std::move(atlas)), options_(o) {
-    if (!(o.bsdf_fraction < 0) && !(o.bsdf_fraction < 1)) throw std::runtime_error("--bsdf-fraction must be in [0, 1)");
-    if (!(o.min_gain >= 1) || !std::isfinite(o.min_gain)) throw std::runtime_error("--min-gain must be >= 1");
+    if (!(o.bsdf_fraction < 0) && !(o.bsdf_fraction < 1)) throw std::runtime_error("bsdf-fraction must be in [0, 1)");
+    if (!(o.min_gain >= 1) || !std::isfinite(o.min_gain)) throw std::runtime_error("min-gain must be >= 1");
     const size_t n = atlas_.size();
     const int R = atlas_.resolution;
     const size_t N = atlas_.texels();
