@@ -4,6 +4,7 @@
 #include <charconv>
 #include <cmath>
 #include <stdexcept>
+#include <type_traits>
 
 #include "formats/mitsuba/xml.h"
 #include "libcommon/spectrum.h"
@@ -11,28 +12,32 @@
 namespace iris::mitsuba {
 
 // ---- numbers --------------------------------------------------------------------------------
-float XmlReader::parse_float(const Source& src, int line, std::string_view s, const std::string& what) const {
-    float v = 0;
+namespace {
+// A whole number of type T in s, surrounding white space and a leading '+' allowed (as Mitsuba's
+// strtod/strtol read them); false for anything else, a non-finite float included.
+template <typename T>
+bool read_number(std::string_view s, T* v) {
     const char* first = s.data();
     const char* last = s.data() + s.size();
     while (first < last && std::isspace(static_cast<unsigned char>(*first))) ++first;
     while (last > first && std::isspace(static_cast<unsigned char>(last[-1]))) --last;
     if (first < last && *first == '+') ++first;
-    auto [ptr, ec] = std::from_chars(first, last, v);
-    if (first == last || ec != std::errc() || ptr != last || !std::isfinite(v))
-        fail(src, line, "bad number " + quote(s) + " for " + what);
+    auto [ptr, ec] = std::from_chars(first, last, *v);
+    if constexpr (std::is_floating_point_v<T>)
+        if (!std::isfinite(*v)) return false;
+    return first != last && ec == std::errc() && ptr == last;
+}
+}  // namespace
+
+float XmlReader::parse_float(const Source& src, int line, std::string_view s, const std::string& what) const {
+    float v = 0;
+    if (!read_number(s, &v)) fail(src, line, "bad number " + quote(s) + " for " + what);
     return v;
 }
 
 int XmlReader::parse_int(const Source& src, int line, std::string_view s, const std::string& what) const {
     int v = 0;
-    const char* first = s.data();
-    const char* last = s.data() + s.size();
-    while (first < last && std::isspace(static_cast<unsigned char>(*first))) ++first;
-    while (last > first && std::isspace(static_cast<unsigned char>(last[-1]))) --last;
-    if (first < last && *first == '+') ++first;
-    auto [ptr, ec] = std::from_chars(first, last, v);
-    if (first == last || ec != std::errc() || ptr != last) fail(src, line, "bad integer " + quote(s) + " for " + what);
+    if (!read_number(s, &v)) fail(src, line, "bad integer " + quote(s) + " for " + what);
     return v;
 }
 
