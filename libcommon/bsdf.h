@@ -64,6 +64,15 @@ struct Bsdf {
     // `bumpmap`: the displacement texture whose gradient tilts the shading normal (Scene::intersect applies
     // it, so every tool sees the bumped frame); -1 = none.
     int16_t tex_bump = -1;
+    // `mask`: the probability that a ray stops at this surface (Mitsuba's opacity; one number, the same
+    // for every channel). Elsewhere the ray goes on as if the surface were not there: Accel's Embree
+    // filter rejects the hit, for every kind of ray alike (camera, shadow, photon, light-tracer). The
+    // BSDF's other fields are the nested BSDF, seen where the ray stops. With tex_opacity >= 0 the
+    // opacity is `opacity` times the luminance of that texture at the hit's uv (`opacity` is then
+    // Mitsuba's rescaling of a texture brighter than 1, else 1). Opacity 1 without a texture: opaque,
+    // and no filter is installed (bsdf_is_masked).
+    float opacity = 1.0f;
+    int16_t tex_opacity = -1;
 
     // Derived constants, filled by bsdf_prepare() (called by the scene loader after the fields above).
     float specular_sampling_weight = 0.5f;  // probability of sampling the glossy/specular lobe first
@@ -80,6 +89,9 @@ inline bool bsdf_has_textured_params(const Bsdf& b) {
 }
 // Whether any texture is read at a hit: a parameter's or the bump map's.
 inline bool bsdf_has_textures(const Bsdf& b) { return bsdf_has_textured_params(b) || b.tex_bump >= 0; }
+// Whether rays may pass through the surface (a `mask` with opacity below 1, or a textured one): only
+// such surfaces get Accel's filter, so that scenes without them trace as fast as before.
+inline bool bsdf_is_masked(const Bsdf& b) { return b.opacity < 1.0f || b.tex_opacity >= 0; }
 
 struct BsdfSample {
     Vec3 wo;            // sampled direction, local frame

@@ -29,7 +29,7 @@ void Scene::finalize() {
     if (meshes.empty() && spheres.empty()) bounds_min = bounds_max = Vec3(0);
     for (Bsdf& b : bsdfs) {
         bsdf_prepare(b);
-        for (int16_t i : {b.tex_diffuse, b.tex_specular, b.tex_transmittance, b.tex_alpha_u, b.tex_alpha_v})
+        for (int16_t i : {b.tex_diffuse, b.tex_specular, b.tex_transmittance, b.tex_alpha_u, b.tex_alpha_v, b.tex_opacity})
             if (i >= 0 && size_t(i) >= textures.size())
                 throw std::runtime_error("a BSDF refers to texture " + std::to_string(i) + " of " +
                                          std::to_string(textures.size()));
@@ -94,9 +94,9 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* h) const {
         if (b.textured) {
             // dp/du, dp/dv of the triangle's uv parametrisation, for a bump map.
             Vec3 dpdu = p1 - p0, dpdv = p2 - p0;  // (without uvs: uv = (u, v), the barycentrics)
+            h->uv = mesh_uv(m, prim, u, v);
             if (!m.uvs.empty()) {
                 const Vec2 t0 = m.uvs[idx[0]], t1 = m.uvs[idx[1]], t2 = m.uvs[idx[2]];
-                h->uv = Vec2{t0.x * b0 + t1.x * u + t2.x * v, t0.y * b0 + t1.y * u + t2.y * v};
                 if (b.tex_bump >= 0) {
                     const float du1 = t1.x - t0.x, dv1 = t1.y - t0.y, du2 = t2.x - t0.x, dv2 = t2.y - t0.y;
                     const float det = du1 * dv2 - dv1 * du2;
@@ -104,8 +104,6 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* h) const {
                     dpdu = (e1 * dv2 - e2 * dv1) * (1.0f / det);
                     dpdv = (e2 * du1 - e1 * du2) * (1.0f / det);  // (det = 0: not finite, no bump)
                 }
-            } else {
-                h->uv = Vec2{u, v};
             }
             if (b.tex_bump >= 0) h->ns = bumped_normal(textures[size_t(b.tex_bump)], h->uv, ns, ng, dpdu, dpdv);
         }
@@ -123,14 +121,12 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* h) const {
         h->light = s.light;
         h->uv = Vec2{};
         if (bsdfs[s.bsdf].textured) {
-            // Mitsuba's sphere: uv = (phi / 2 pi, theta / pi) of the outward direction in the object frame,
-            // phi in [0, 2 pi) from the x axis towards y, theta from +z.
-            const float lx = dot(n, s.axis_x), ly = dot(n, s.axis_y), lz = dot(n, s.axis_z);
-            float phi = std::atan2(ly, lx);
-            if (phi < 0) phi += 2.0f * kPi;
-            const float theta = std::acos(std::clamp(lz, -1.0f, 1.0f));
-            h->uv = Vec2{phi * (0.5f * kInvPi), theta * kInvPi};
+            h->uv = sphere_uv(s, n);
             if (const Bsdf& b = bsdfs[s.bsdf]; b.tex_bump >= 0) {
+                const float lx = dot(n, s.axis_x), ly = dot(n, s.axis_y), lz = dot(n, s.axis_z);
+                float phi = std::atan2(ly, lx);  // (as sphere_uv, before its scaling)
+                if (phi < 0) phi += 2.0f * kPi;
+                const float theta = std::acos(std::clamp(lz, -1.0f, 1.0f));
                 // Mitsuba's sphere: dp/du = 2 pi r (-y, x, 0), dp/dv = pi r (z cos phi, z sin phi, -sin theta)
                 // in the object frame (x, y, z the unit position); degenerate at the poles (no bump there).
                 const float sin_t = std::sin(theta), cos_p = std::cos(phi), sin_p = std::sin(phi);
@@ -142,6 +138,24 @@ bool Scene::intersect(const Ray& ray, SurfaceHit* h) const {
     }
     h->frame = Frame(h->ns);
     return true;
+}
+
+Vec2 mesh_uv(const Mesh& m, uint32_t prim, float u, float v) {
+    if (m.uvs.empty()) return Vec2{u, v};
+    const uint32_t* idx = &m.indices[3 * size_t(prim)];
+    const Vec2 t0 = m.uvs[idx[0]], t1 = m.uvs[idx[1]], t2 = m.uvs[idx[2]];
+    const float b0 = 1.0f - u - v;
+    return Vec2{t0.x * b0 + t1.x * u + t2.x * v, t0.y * b0 + t1.y * u + t2.y * v};
+}
+
+Vec2 sphere_uv(const Sphere& s, Vec3 n) {
+    // Mitsuba's sphere: uv = (phi / 2 pi, theta / pi) of the outward direction in the object frame,
+    // phi in [0, 2 pi) from the x axis towards y, theta from +z.
+    const float lx = dot(n, s.axis_x), ly = dot(n, s.axis_y), lz = dot(n, s.axis_z);
+    float phi = std::atan2(ly, lx);
+    if (phi < 0) phi += 2.0f * kPi;
+    const float theta = std::acos(std::clamp(lz, -1.0f, 1.0f));
+    return Vec2{phi * (0.5f * kInvPi), theta * kInvPi};
 }
 
 const Bsdf& resolve_textured_bsdf(const Scene& scene, const Bsdf& b, Vec2 uv, Bsdf* scratch) {

@@ -150,6 +150,11 @@ Vec3 offset_ray_origin(Vec3 p, Vec3 ng, Vec3 w, float magnitude = 0.0f);
 // specular bounce (a caustic).
 bool has_specular_surfaces(const Scene& scene);
 
+// Mitsuba's texture coordinates (SurfaceHit::uv) of triangle `prim` of a mesh at Embree's barycentrics
+// (u, v), and of a sphere at the unit outward direction n (world space) from its centre.
+Vec2 mesh_uv(const Mesh& m, uint32_t prim, float u, float v);
+Vec2 sphere_uv(const Sphere& s, Vec3 n);
+
 // The BSDF at a surface hit: scene.bsdfs[hit.bsdf] with its textured parameters evaluated at hit.uv.
 // An untextured BSDF (the common case; a bump map alone does not count, Scene::intersect applies it to
 // the hit's frame) is returned by reference, at the cost of one flag test; a

@@ -3,6 +3,7 @@
 // parameter the builder did not query and checks the result.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "formats/mitsuba/builder.h"
 
@@ -196,6 +197,90 @@ void bumpmap(BsdfArgs& a) {
     b.tex_bump = bump;
 }
 
+// Mitsuba's `mask`: a nested BSDF seen with probability `opacity` (a grey spectrum or a texture,
+// default 0.5); elsewhere the surface lets rays through unchanged. The result is the nested BSDF with
+// Bsdf::opacity / tex_opacity set; Accel's Embree filter does the rest (bsdf.h, DESIGN.md "Masks").
+// iris's opacity is one number, so a coloured one is refused (Mitsuba weighs the colour per channel).
+// As Mitsuba (ensureEnergyConservation), an opacity above 1 is scaled by 0.99 / its maximum, with a warning.
+void mask(BsdfArgs& a) {
+    SceneBuilder& sb = a.b;
+    Plugin& p = a.p;
+    const Source& src = *p.src;
+    Bsdf& b = a.bsdf;
+    bool have_bsdf = false;
+    int16_t tex = -1;
+    int tex_line = 0;
+    auto take_bsdf = [&](const Bsdf& nested, int line) {
+        if (have_bsdf) fail(src, line, "mask takes exactly one nested <bsdf> or <ref> (the BSDF where the surface is opaque)");
+        have_bsdf = true;
+        b = nested;
+    };
+    auto take_texture = [&](pugi::xml_node c, int line) {
+        const std::string name = c.attribute("name").value();
+        if (name != "opacity")
+            fail(src, line, "<" + std::string(c.name()) + " name=" + quote(name) + "> inside bsdf \"mask\": only opacity can be a texture");
+        if (tex >= 0) fail(src, line, "parameter \"opacity\" given twice (first at line " + std::to_string(tex_line) + ")");
+        tex_line = line;
+        tex = std::string(c.name()) == "texture" ? sb.parse_texture(src, c, "texture for parameter \"opacity\" of bsdf \"mask\"")
+                                                 : sb.texture_ref(src, c);
+    };
+    for (pugi::xml_node c : p.children) {
+        const std::string tag = c.name();
+        const int line = src.line_of(c);
+        if (tag == "texture") {
+            take_texture(c, line);
+        } else if (tag == "bsdf") {
+            std::string nested_id;
+            take_bsdf(sb.parse_bsdf(src, c, &nested_id), line);
+            if (!nested_id.empty()) sb.named_bsdfs[nested_id].used = true;  // used through the wrapper
+        } else if (tag == "ref" && sb.named_textures.count(c.attribute("id").value())) {
+            take_texture(c, line);
+        } else if (tag == "ref") {
+            take_bsdf(sb.named_bsdf(src, c).bsdf, line);
+        } else {
+            fail(src, line, "<" + tag + "> is not allowed inside bsdf \"mask\"");
+        }
+    }
+    if (tex >= 0 && sb.find(p, "opacity"))
+        fail(src, sb.find(p, "opacity")->line, "parameter \"opacity\" given twice (a texture at line " + std::to_string(tex_line) + ")");
+    if (!have_bsdf) fail(src, p.line, "mask needs a nested <bsdf> or <ref> (the BSDF where the surface is opaque)");
+    // The largest opacity and whether every value is grey: the constant's, or the texture's texels (a
+    // checkerboard's two colours).
+    std::vector<RGB> values;
+    int line = p.line;
+    if (tex >= 0) {
+        const Texture& t = sb.scene.textures[size_t(tex)];
+        values = t.type == TextureType::Checkerboard ? std::vector<RGB>{t.color0, t.color1} : t.texels;
+        line = tex_line;
+    } else {
+        values = {sb.get_spectrum(p, "opacity", RGB(0.5f))};
+        if (Prop* o = sb.find(p, "opacity")) line = o->line;
+    }
+    float top = 0;
+    for (const RGB& v : values) {
+        if (!is_finite(v) || v.r < 0 || v.g < 0 || v.b < 0) fail(src, line, "mask: opacity must be finite and non-negative");
+        const float hi = std::max({v.r, v.g, v.b}), lo = std::min({v.r, v.g, v.b});
+        if (hi - lo > 1e-3f * std::max(hi, 1e-3f))
+            fail(src, line, "mask: a coloured opacity is not supported (iris lets a ray through with one probability for "
+                            "all channels; give r = g = b)");
+        top = std::max(top, hi);
+    }
+    float opacity = tex >= 0 ? 1.0f : luminance(values[0]);
+    if (top > 1) {
+        const float k = 0.99f / top;
+        char msg[160];
+        std::snprintf(msg, sizeof msg, "mask: opacity reaches %g (> 1): scaled by %g, as Mitsuba's ensureEnergyConservation does",
+                      double(top), double(k));
+        sb.warn(src, line, msg);
+        opacity *= k;
+    }
+    // A mask inside a mask: opacities multiply, which one factor holds only where both are constants.
+    if (b.tex_opacity >= 0 || (bsdf_is_masked(b) && tex >= 0))
+        fail(src, p.line, "a mask inside a mask is supported only with constant opacities (iris keeps one opacity texture per BSDF)");
+    b.opacity *= opacity;
+    b.tex_opacity = tex;
+}
+
 void diffuse(BsdfArgs& a) {
     a.bsdf.type = BsdfType::Diffuse;
     a.bsdf.diffuse = spectrum_param(a, "reflectance", RGB(0.5f), &a.bsdf.tex_diffuse);
@@ -305,6 +390,7 @@ struct BsdfPlugin {
 const BsdfPlugin kBsdfs[] = {
     {"twosided", twosided, true},
     {"bumpmap", bumpmap, true},
+    {"mask", mask, true},
     {"diffuse", diffuse},
     {"roughdiffuse", roughdiffuse},
     {"dielectric", dielectric},

@@ -236,6 +236,11 @@ void SceneBuilder::shape(const Source& src, pugi::xml_node n) {
     if (p.type == "instance") return instance(p);
     pugi::xml_node emitter_node;
     const uint32_t bsdf = shape_children(*this, p, &emitter_node);
+    // A masked emitter: Mitsuba emits its full radiance from every point and lets rays through the mask
+    // (its emitter ignores the BSDF), while iris's masked surface is not there for the rays that pass:
+    // light sampling and rays that hit the emitter would disagree.
+    if (emitter_node && bsdf_is_masked(scene.bsdfs[bsdf]))
+        fail(src, src.line_of(emitter_node), "an area emitter on a shape whose bsdf is a mask is not supported");
     const bool flip = get_bool(p, "flipNormals", false);
     const ShapePlugin* plugin = nullptr;
     std::vector<std::string> names;

@@ -197,7 +197,11 @@ protected:
         write_text(in("truncated.xml"), caustic_text.substr(0, caustic_text.size() * 6 / 10));
         write_text(in("unknown_plugin.xml"), scene_with(sphere + "\n    <bsdf type=\"velvet\"/>"));
         write_text(in("bumpmap.xml"), scene_with(sphere + "\n    <bsdf type=\"bumpmap\"><bsdf type=\"diffuse\"/></bsdf>"));
-        write_text(in("mask.xml"), scene_with(sphere + "\n    <bsdf type=\"mask\"><bsdf type=\"diffuse\"/></bsdf>"));
+        write_text(in("mask.xml"), scene_with(sphere + "\n    <bsdf type=\"mask\"><spectrum name=\"opacity\" value=\"0.4\"/></bsdf>"));
+        write_text(in("mask_colour.xml"), scene_with(sphere + "\n    <bsdf type=\"mask\"><rgb name=\"opacity\" value=\"0.2, 0.5, 0.5\"/>"
+                                                              "<bsdf type=\"diffuse\"/></bsdf>"));
+        write_text(in("mask_emitter.xml"), scene_with(sphere + "\n    <bsdf type=\"mask\"><bsdf type=\"diffuse\"/></bsdf>"
+                                                               "<emitter type=\"area\"><rgb name=\"radiance\" value=\"1, 1, 1\"/></emitter>"));
         auto textured = [&](const std::string& file) {
             return scene_with(sphere + "\n    <bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
                                        "<string name=\"filename\" value=\"" + file + "\"/></texture></bsdf>");
@@ -331,7 +335,10 @@ const BadInputCase kCases[] = {
     {"SceneTruncated", "render", "scene file cut off midway", "{in}/truncated.xml -o {out}", "truncated.xml", "malformed XML"},
     {"SceneUnknownPlugin", "render", "unknown plugin (bsdf type velvet)", "{in}/unknown_plugin.xml -o {out}", "velvet"},
     {"SceneBumpmap", "render", "bumpmap without its displacement texture", "{in}/bumpmap.xml -o {out}", "bumpmap needs a displacement <texture>"},
-    {"SceneMask", "render", "unsupported BSDF wrapper (mask)", "{in}/mask.xml -o {out}", "unsupported plugin \"mask\""},
+    {"SceneMaskWithoutBsdf", "render", "mask without its nested BSDF", "{in}/mask.xml -o {out}", "mask needs a nested <bsdf> or <ref>"},
+    {"SceneMaskColoured", "render", "mask with a coloured opacity", "{in}/mask_colour.xml -o {out}", "a coloured opacity is not supported"},
+    {"SceneMaskEmitter", "render", "area emitter on a masked shape", "{in}/mask_emitter.xml -o {out}", "an area emitter on a shape whose bsdf is a mask"},
+    {"TracePhotonsMaskWithoutBsdf", "trace-photons", "mask without its nested BSDF", "{in}/mask.xml -o {out}", "mask needs a nested <bsdf> or <ref>"},
     {"SceneTextureUnsupported", "render", "unsupported texture plugin (wireframe)", "{in}/texture_unsupported.xml -o {out}", "unsupported plugin \"wireframe\""},
     {"TextureMissing", "render", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png", "cannot read texture file"},
     {"TextureGarbage", "render", "bitmap texture file that is not an image", "{in}/texture_garbage.xml -o {out}", "not_a_png.png", "unrecognised image format"},

@@ -89,4 +89,14 @@ TEST(ExportScene, RefusesWhatItCannotTranslate) {
     EXPECT_NE(t.status, 0);
     EXPECT_NE(t.output.find("export-scene: error: " + tex + ": a textured BSDF parameter"), std::string::npos) << t.output;
     EXPECT_FALSE(std::filesystem::exists(out));
+    // A mask: refused likewise (the peer would render the surface opaque).
+    const std::string masked = (d.path / "mask.xml").string();
+    std::ofstream(masked) << "<?xml version=\"1.0\"?>\n<scene version=\"0.5.0\">\n"
+                             "  <shape type=\"rectangle\"><bsdf type=\"mask\"><bsdf type=\"diffuse\"/></bsdf></shape>\n"
+                             "  <shape type=\"sphere\"><emitter type=\"area\"/></shape>\n"
+                             "  <sensor type=\"perspective\"><film type=\"hdrfilm\"/></sensor>\n</scene>\n";
+    ToolResult m = run_command(tool("export-scene") + " " + masked + " -o " + out);
+    EXPECT_NE(m.status, 0);
+    EXPECT_NE(m.output.find("export-scene: error: " + masked + ": a mask BSDF"), std::string::npos) << m.output;
+    EXPECT_FALSE(std::filesystem::exists(out));
 }

@@ -508,3 +508,28 @@ TEST(EstimatorsAgree, BumpMappedFloorNeeAndBsdfSampling) {
 }
 
 }  // namespace
+
+namespace {
+
+// Masks (`mask`, tests/data/render/masked_blinds.xml: blinds of textured opacity between a light and the
+// floor, a standing panel of constant opacity 0.6, a mirror ball making caustics through the blinds).
+// Accel's filter lets rays through for every estimator alike: NEE's shadow rays and BSDF-sampled rays
+// must agree per pixel (light through the blinds reaches the floor both ways).
+TEST(EstimatorsAgree, MaskedBlindsNeeAndBsdfSampling) {
+    expect_nee_agrees_with_bsdf_sampling("render/masked_blinds.xml", {""});
+}
+
+// The same scene through the whole pipeline: photons and caches pass the masks as the paths do; guided
+// rendering (every vertex), the caustic light tracer and the caustic connections (their light paths
+// pass the blinds too) agree with the unguided path tracer per pixel.
+TEST(GuidingUnbiased, MaskedSceneAgreesPerPixel) {
+    TempDir dir;
+    const std::string scene = data_file("render/masked_blinds.xml");
+    ASSERT_TRUE(build_atlases(scene, dir));
+    const std::string atlas = " --atlas " + dir.file("atlas.h5");
+    expect_agrees_per_pixel(scene, dir, 1024,
+                            {{"every vertex guided", "--set mode=nee+bsdf+cache --set pilot=off --set guide-vertices=0 --set rr-threshold=0.1" + atlas},
+                             {"light-traced, connected", "--set mode=nee+cache --set pilot=off --set caustics=on --set connect=on" + atlas}});
+}
+
+}  // namespace

@@ -726,7 +726,7 @@ TEST(SceneLoaderErrors, UnknownPlugin) {
     std::string text = scene_text("  <shape type=\"sphere\">\n    <bsdf type=\"velvet\"/>\n  </shape>\n");
     expect_error(d.write("s.xml", text), line_of(text, "velvet"), "unsupported plugin \"velvet\" (bsdf)");
     // Wrappers that nest a BSDF are named as the unsupported plugin, not reported as a misplaced <bsdf>.
-    for (const char* wrapper : {"mask"}) {
+    for (const char* wrapper : {"coating"}) {
         std::string w = scene_text(std::string("  <shape type=\"sphere\">\n    <bsdf type=\"") + wrapper +
                                    "\">\n      <bsdf type=\"diffuse\"/>\n    </bsdf>\n  </shape>\n");
         expect_error(d.write("w.xml", w), line_of(w, wrapper), std::string("unsupported plugin \"") + wrapper + "\" (bsdf)");

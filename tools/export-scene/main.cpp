@@ -75,6 +75,10 @@ int main(int argc, char** argv) {
             if (iris::bsdf_has_textures(b))  // (parse_scene: bsdf_prepare has not run, b.textured is unset)
                 throw std::runtime_error(path + ": a textured BSDF parameter (export-scene writes constant "
                                                 "parameters only)");
+        // Likewise a mask: the peer has no opacity, and would render the surface opaque.
+        for (const iris::Bsdf& b : scene.bsdfs)
+            if (iris::bsdf_is_masked(b))
+                throw std::runtime_error(path + ": a mask BSDF (export-scene writes opaque surfaces only)");
         for (const iris::Light& l : scene.lights)
             if (l.type != iris::LightType::AreaMesh && l.type != iris::LightType::AreaSphere)
                 throw std::runtime_error(path + ": a light type export-scene does not translate (area only)");
