@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "libcommon/mutation.h"
 #include "libcommon/rng.h"
 
 namespace iris {
@@ -45,7 +46,8 @@ void mask_filter(const RTCFilterFunctionNArguments* args) {
         const float t = RTCRayN_tfar(r, n, i);
         const float alpha = mask_opacity(*m, prim, RTCHitN_u(h, n, i), RTCHitN_v(h, n, i), o + d * t);
         if (alpha >= 1.0f) continue;
-        if (!(mask_uniform(o, d, geom, prim, dot(ng, d) > 0) < alpha)) args->valid[i] = 0;
+        const bool stop = mask_uniform(o, d, geom, prim, dot(ng, d) > 0) < alpha;
+        if (IRIS_MUTANT(mask_opacity_inverted) ? stop : !stop) args->valid[i] = 0;
     }
 }
 
@@ -62,7 +64,7 @@ void maybe_mask(RTCGeometry g, const Scene& scene, uint32_t bsdf, const Mesh* me
     masked->push_back(m);  // reserved: the address stays
     rtcSetGeometryUserData(g, &masked->back());
     rtcSetGeometryIntersectFilterFunction(g, mask_filter);
-    rtcSetGeometryOccludedFilterFunction(g, mask_filter);
+    if (!IRIS_MUTANT(mask_shadow_rays_opaque)) rtcSetGeometryOccludedFilterFunction(g, mask_filter);
 }
 
 }  // namespace

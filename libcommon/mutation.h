@@ -25,7 +25,9 @@
     X(spheremap_pdf_skew)     \
     X(photon_power_scale)     \
     X(product_pdf_scale)      \
-    X(connection_weight_one)
+    X(connection_weight_one)  \
+    X(mask_shadow_rays_opaque) \
+    X(mask_opacity_inverted)
 
 namespace iris {
 

@@ -11,9 +11,10 @@
 // and a straight path from the light to a point of the receiver crosses the mask in one quadrant. Each
 // estimate is compared with half the estimate through a mask of opacity 0 (nothing hidden), by a
 // z-test against both estimates' sample variances; 6 tests at |z| < 5 (false-alarm rate ~ 3e-6).
-// Checked to fail: with the filter never rejecting a hit (mask_filter's `valid[i] = 0` removed) every
-// estimate behind a mask drops to 0 (|z| > 100); with the opacity compared the wrong way round
-// (u >= alpha) the 0.5 case still passes, which the checkerboard and the unit tests catch (|z| > 100).
+// Checked to fail (tests/mutants): shadow rays that ignore masks (mask_shadow_rays_opaque) leave NEE no
+// light behind any mask (the open estimate is 0); a filter that keeps a hit with probability 1 - opacity
+// (mask_opacity_inverted) makes the open mask and the checkerboard opaque everywhere (|z| 185-999). (An
+// opacity of 0.5 alone could not tell the second.)
 //
 // The filter's numbers (mask_uniform) are checked too: uniform on [0, 1) over random rays, and
 // independent between the two primitives one ray meets (chi-square).
@@ -173,7 +174,7 @@ TEST(MaskIrradiance, HalfHiddenHalvesNeeBsdfSamplingAndPhotons) {
     uint64_t seed = 11;
     for (const Method& m : methods) {
         const Estimate o = m.estimate(open, seed++);
-        ASSERT_GT(o.mean, 0) << m.name;
+        EXPECT_GT(o.mean, 0) << m.name << ": no light through a mask of opacity 0";
         for (const auto& [label, scene] : {std::pair<const char*, const Scene*>{"opacity 0.5", &half}, {"checkerboard", &checker}}) {
             const Estimate e = m.estimate(*scene, seed++);
             const double z = z_half(e, o);
