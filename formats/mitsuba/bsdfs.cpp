@@ -260,7 +260,9 @@ void mask(BsdfArgs& a) {
     for (const RGB& v : values) {
         if (!is_finite(v) || v.r < 0 || v.g < 0 || v.b < 0) fail(src, line, "mask: opacity must be finite and non-negative");
         const float hi = std::max({v.r, v.g, v.b}), lo = std::min({v.r, v.g, v.b});
-        if (hi - lo > 1e-3f * std::max(hi, 1e-3f))
+        // Grey within 0.01 (linear units, the opacity's own scale): room for a JPEG's chroma noise or a
+        // spectrum's conversion to RGB; the luminance then stands for all channels (an error of <= 0.01).
+        if (hi - lo > 0.01f)
             fail(src, line, "mask: a coloured opacity is not supported (iris lets a ray through with one probability for "
                             "all channels; give r = g = b)");
         top = std::max(top, hi);

@@ -170,7 +170,8 @@ TEST(MaskReader, BathroomRugFormAndRefs) {
 }
 
 // As Mitsuba's ensureEnergyConservation: an opacity above 1 is scaled by 0.99 / its maximum, with a
-// warning naming the line; a mask inside a mask multiplies constant opacities.
+// warning naming the line; a mask inside a mask multiplies constant opacities; an all but grey opacity is
+// read as its luminance.
 TEST(MaskReader, RescalingAndNesting) {
     TempDir d;
     const std::string text = scene_text(R"(  <shape type="sphere">
@@ -185,6 +186,9 @@ TEST(MaskReader, RescalingAndNesting) {
       <bsdf type="mask"><spectrum name="opacity" value="0.6"/><bsdf type="diffuse"/></bsdf>
     </bsdf>
   </shape>
+  <shape type="sphere">
+    <bsdf type="mask"><rgb name="opacity" value="0.5, 0.505, 0.5"/><bsdf type="diffuse"/></bsdf>
+  </shape>
 )");
     std::vector<std::string> warnings;
     const Scene s = parse(d.write("scaled.xml", text), &warnings);
@@ -195,6 +199,8 @@ TEST(MaskReader, RescalingAndNesting) {
     EXPECT_NE(warnings[0].find("scaled.xml:" + std::to_string(line_of(text, "\"2\"")) + ":"), std::string::npos) << warnings[0];
     EXPECT_NE(warnings[0].find("ensureEnergyConservation"), std::string::npos) << warnings[0];
     EXPECT_NEAR(s.bsdfs[s.spheres[1].bsdf].opacity, 0.3f, 1e-6f);
+    // Grey within 0.01 (a JPEG's chroma noise): read as its luminance.
+    EXPECT_NEAR(s.bsdfs[s.spheres[2].bsdf].opacity, 0.5f + 0.715160f * 0.005f, 1e-5f);
 }
 
 TEST(MaskReader, RefusalsAreOneLineNamingTheLine) {
