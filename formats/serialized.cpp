@@ -171,12 +171,14 @@ TriangleMesh parse_serialized(std::string_view b, uint32_t index, const std::str
     Inflater in(stream, what);
 
     const uint32_t flags = in.value<uint32_t>("flags");
+    // Mitsuba reads doubles where the double-precision flag is set and floats otherwise: files of
+    // version 3 (older exporters) carry neither precision flag.
     const bool single = flags & kSingle, dbl = flags & kDouble;
-    if (single == dbl) fail(what, "corrupt serialized mesh: flags 0x" + [&] {
+    if (single && dbl) fail(what, "corrupt serialized mesh: flags 0x" + [&] {
         char h[16];
         std::snprintf(h, sizeof h, "%x", flags);
         return std::string(h);
-    }() + " give neither or both of single and double precision");
+    }() + " give both single and double precision");
     if (d.version == 4) {
         // The shape's name: up to a NUL byte; bounded so that a stream without one fails early.
         for (int i = 0;; ++i) {

@@ -75,6 +75,7 @@ const char* kind_name(Kind k) {
         case Kind::Rgb: return "<rgb>";
         case Kind::Srgb: return "<srgb>";
         case Kind::Spectrum: return "<spectrum>";
+        case Kind::Blackbody: return "<blackbody>";
         case Kind::Transform: return "<transform>";
     }
     return "?";
@@ -90,6 +91,7 @@ std::optional<Kind> kind_of_tag(std::string_view tag) {
     if (tag == "rgb") return Kind::Rgb;
     if (tag == "srgb") return Kind::Srgb;
     if (tag == "spectrum") return Kind::Spectrum;
+    if (tag == "blackbody") return Kind::Blackbody;
     if (tag == "transform") return Kind::Transform;
     return std::nullopt;
 }
@@ -227,7 +229,7 @@ Plugin XmlReader::read_plugin(const Source& src, pugi::xml_node n) {
             p.props.push_back(prop);
         } else if (is_plugin_tag(tag)) {
             p.children.push_back(c);
-        } else if (tag == "blackbody" || tag == "animation") {
+        } else if (tag == "animation") {
             fail(src, src.line_of(c), "<" + tag + "> is not supported");
         } else {
             fail(src, src.line_of(c), "unknown element <" + tag + "> in " + p.what());
@@ -277,8 +279,11 @@ void XmlReader::finish(Plugin& p, const IgnoreRule& ignore) {
         const char* why = ignore ? ignore(prop.name) : nullptr;
         if (why)
             warn(*p.src, prop.line, "parameter " + quote(prop.name) + " of " + p.what() + " ignored: " + why);
-        else
-            fail(*p.src, prop.line, "unknown parameter " + quote(prop.name) + " for " + p.what());
+        else if (options_.strict)
+            fail(*p.src, prop.line, "unknown parameter " + quote(prop.name) + " for " + p.what() + " (--strict)");
+        else  // as Mitsuba's "Unqueried attribute" warning: the scene still renders
+            warn(*p.src, prop.line, "parameter " + quote(prop.name) + " of " + p.what() +
+                                        " is not read by this plugin; ignored (--strict makes it an error)");
     }
 }
 

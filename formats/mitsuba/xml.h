@@ -109,7 +109,7 @@ std::vector<std::string_view> tokens(std::string_view s);
 
 // ------------------------------------------------------------------------------------------------
 // Parameters and plugins.
-enum class Kind : uint8_t { Float, Integer, Boolean, String, Point, Vector, Rgb, Srgb, Spectrum, Transform };
+enum class Kind : uint8_t { Float, Integer, Boolean, String, Point, Vector, Rgb, Srgb, Spectrum, Blackbody, Transform };
 
 // A typed parameter of a plugin element (<float name="x" value="1"/>), read lazily by the getters.
 struct Prop {
@@ -205,7 +205,8 @@ public:
     std::optional<std::string> get_string(Plugin& p, const std::string& name);
     std::string get_string(Plugin& p, const std::string& name, const std::string& def);
     std::optional<Vec3> get_point(Plugin& p, const std::string& name);  // <point> or <vector>
-    // <spectrum>, <rgb> or <srgb> -> linear RGB (Mitsuba 0.5 RGB mode; see scenes/thesis/README.md).
+    // <spectrum> (a value, nm:value pairs or an .spd file), <rgb>, <srgb> or <blackbody> -> linear RGB
+    // (Mitsuba 0.5 RGB mode; see scenes/thesis/README.md).
     std::optional<RGB> get_spectrum(Plugin& p, const std::string& name);
     RGB get_spectrum(Plugin& p, const std::string& name, RGB def);
     // A refractive index given as a number or as one of Mitsuba's material names (`def`: a name).
@@ -224,6 +225,9 @@ public:
     // The scene's identity: every file read goes into it (scene files here; meshes and images in
     // the builders).
     Fingerprint fingerprint;
+    // A spectrum that spectrum-interpolation changes was read (tabulated, from a file, a black body):
+    // the setting is then part of the scene's identity (SceneBuilder::run).
+    bool interpolated_spectrum = false;
 
 protected:
     const SceneLoadOptions& options_;
