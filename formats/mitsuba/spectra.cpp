@@ -134,7 +134,7 @@ std::optional<RGB> XmlReader::get_spectrum(Plugin& p, const std::string& name) {
             std::vector<float> f = parse_floats(src, line, v, w);
             if (f.size() == 1) return RGB(f[0]);
             if (f.size() == 3) return RGB(f[0], f[1], f[2]);
-            fail(src, line, w + ": an <rgb> value is #rrggbb, one or three numbers");
+            fail(src, line, w + ": an <rgb> value is one or three numbers (or #rrggbb)");
         }
         case Kind::Srgb: {
             std::string v = value_of(p, *prop);
