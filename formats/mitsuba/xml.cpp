@@ -160,12 +160,15 @@ void XmlReader::check_no_text(const Source& src, pugi::xml_node n) {
 
 // ---- $parameters ----------------------------------------------------------------------------
 void XmlReader::collect_defaults(const Source& src, pugi::xml_node root) {
-    for (pugi::xml_node c : root.children("default")) {
-        check_attrs(src, c, {"name", "value"});
-        if (!c.attribute("name") || !c.attribute("value"))
-            fail(src, src.line_of(c), "<default> needs name and value attributes");
-        params_.emplace(c.attribute("name").value(), c.attribute("value").value());  // first one wins
-    }
+    for (pugi::xml_node c : root.children("default")) collect_default(src, c);
+}
+
+void XmlReader::collect_default(const Source& src, pugi::xml_node c) {
+    check_attrs(src, c, {"name", "value"});
+    check_no_text(src, c);
+    if (!c.attribute("name") || !c.attribute("value"))
+        fail(src, src.line_of(c), "<default> needs name and value attributes");
+    params_.emplace(c.attribute("name").value(), c.attribute("value").value());  // first one wins
 }
 
 // Replaces every $identifier by its parameter value; an unknown one is an error.
@@ -229,6 +232,11 @@ Plugin XmlReader::read_plugin(const Source& src, pugi::xml_node n) {
             p.props.push_back(prop);
         } else if (is_plugin_tag(tag)) {
             p.children.push_back(c);
+        } else if (tag == "default") {
+            // Mitsuba's schema allows <default> in any plugin element, and its value serves every later
+            // $name as one at the top does (the first one of a name wins; the caller's values win over
+            // all). The improved-path-guiding fork's scenes put one inside BSDFs.
+            collect_default(src, c);
         } else if (tag == "animation") {
             fail(src, src.line_of(c), "<" + tag + "> is not supported");
         } else {

@@ -168,6 +168,8 @@ public:
     // ---- $parameters ----
     // The <default name= value=> children of a <scene> root (the first one of a name wins).
     void collect_defaults(const Source& src, pugi::xml_node root);
+    // One <default> element (at the top or inside a plugin element, as Mitsuba's schema allows).
+    void collect_default(const Source& src, pugi::xml_node c);
     // The caller's values (they override <default>s).
     void set_parameter(const std::string& name, const std::string& value) { params_[name] = value; }
     // Replaces every $identifier by its parameter value; an unknown one is an error.

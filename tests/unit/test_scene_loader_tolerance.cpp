@@ -136,6 +136,27 @@ TEST(SceneTolerance, UnreadParameterWarnsNamingFileLinePluginAndParameter) {
     EXPECT_NE(e.find("unknown parameter \"alpha\" for bsdf \"conductor\""), std::string::npos) << e;
 }
 
+// Mitsuba's schema allows <default> inside any plugin element (country_kitchen has one in a BSDF); the
+// first one of a name wins, and the caller's value wins over all.
+TEST(SceneTolerance, DefaultInsideAPluginElement) {
+    TempDir d;
+    const std::string text = scene_text(R"(  <shape type="sphere">
+    <bsdf type="diffuse">
+      <default name="refl" value="0.25"/>
+      <float name="unused" value="$refl"/>
+      <rgb name="reflectance" value="$refl"/>
+    </bsdf>
+  </shape>
+)");
+    const std::string path = d.write("s.xml", text);
+    std::vector<std::string> w;
+    EXPECT_EQ(parse(path, &w).bsdfs[0].diffuse.r, 0.25f);
+    SceneLoadOptions o;
+    o.warnings = &w;
+    o.parameters["refl"] = "0.75";
+    EXPECT_EQ(parse_scene(path, o).bsdfs[0].diffuse.r, 0.75f);
+}
+
 // A misspelt name leaves the default in place, with the warning saying which parameter was ignored.
 TEST(SceneTolerance, MisspeltParameterKeepsTheDefault) {
     TempDir d;
