@@ -352,7 +352,7 @@ const BadInputCase kCases[] = {
     {"TracePhotonsTextureMissing", "trace-photons", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png", "cannot read texture file"},
     {"SceneMisspeltParameter", "render", "--strict: misspelt parameter (radus; without --strict a warning)", "{in}/misspelt.xml --strict -o {out}", "radus", "unknown parameter"},
     {"TracePhotonsStrictUnread", "trace-photons", "--strict: a parameter its plugin does not read", "{in}/misspelt.xml --strict -o {out}", "misspelt.xml", "unknown parameter \"radus\""},
-    {"SceneBlackbodyNegative", "render", "<blackbody> with a negative temperature", "{in}/blackbody_negative.xml -o {out}", "blackbody_negative.xml", "temperature must be positive"},
+    {"SceneBlackbodyNegative", "render", "blackbody spectrum with a negative temperature", "{in}/blackbody_negative.xml -o {out}", "blackbody_negative.xml", "temperature must be positive"},
     {"SceneMediumInterior", "render", "a medium as a shape's interior (media are not built)", "{in}/medium_interior.xml -o {out}", "medium \"milk\"", "participating media are not supported yet"},
     {"SceneRefUnsupported", "render", "a shape refers to a top-level plugin iris does not build (velvet)", "{in}/ref_unsupported.xml -o {out}", "ref_unsupported.xml", "refers to unsupported plugin \"velvet\""},
     {"RenderSpectrumInterpolationWord", "render", "spectrum-interpolation neither linear nor mitsuba-0.5.0", "{in}/valid.xml --set spectrum-interpolation=cubic -o {out}", "spectrum-interpolation"},
