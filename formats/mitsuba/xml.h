@@ -3,9 +3,10 @@
 // The document is parsed with pugixml; each plugin element (<bsdf>, <shape>, ...) is read into a
 // Plugin: its typed parameters (<float name=...>, <rgb>, <transform>, ...) and its nested plugin
 // elements. The builder of each plugin kind (formats/mitsuba/builder.h) then *queries* the
-// parameters it knows, with Mitsuba's defaults. Whatever was not queried is an error (a misspelt
-// parameter must not silently change a picture), except for a documented list per plugin that has
-// no effect in iris (or none in Mitsuba either), which is accepted with a warning (finish()).
+// parameters it knows, with Mitsuba's defaults. Whatever was not queried is a warning naming file,
+// line, plugin and parameter, as Mitsuba's "Unqueried attribute" (a misspelt parameter must not
+// silently change a picture), and an error with SceneLoadOptions::strict; a documented list per plugin
+// of parameters that have no effect in iris warns in either mode (finish()).
 //
 // Values are read lazily: "$name" substitution and number parsing happen when a parameter is
 // queried, so an ignored parameter (e.g. an ldrfilm label full of "$scene['renderTime']") is never
