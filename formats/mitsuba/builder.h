@@ -15,8 +15,9 @@
 // there (kBsdfs, kTextures, kShapes, kEmitters). The function queries its parameters from the Plugin
 // with the XmlReader getters (b.get_float(p, "name", default), ...), with Mitsuba's names and
 // defaults; the dispatcher then calls finish(), which warns about every parameter the function did not
-// query (rejects it with SceneLoadOptions::strict). Then add its test (tests/unit/test_scene_loader.cpp or a file beside it) and a line in
-// DESIGN.md's list of supported plugins. formats/README.md says the same.
+// query (rejects it with SceneLoadOptions::strict). Then add its test (tests/unit/test_scene_loader.cpp
+// or a file beside it) and a line in DESIGN.md's list of supported plugins. formats/README.md says the
+// same.
 #pragma once
 
 #include <cstdint>
