@@ -34,9 +34,9 @@ const std::vector<SettingRow> kTable = {
     // every stage that loads the scene
     {K::Word, "spectrum-interpolation", kTracePhotons | kPlaceCaches | kRender, "linear", {"linear", "mitsuba-0.5.0"},
      0, 0, false, false, "-",
-     "A tabulated <spectrum value=\"nm:v, ...\"> (and .spd file, <blackbody>) between its samples: linear (Mitsuba "
-     "0.6's core) or mitsuba-0.5.0 (that release's backwards interpolation, with which the thesis scenes were "
-     "rendered)"},
+     "How a scene's tabulated spectra (nm:value pairs, .spd files; black bodies through the CIE tables) are "
+     "interpolated between samples: linear (Mitsuba 0.6's core) or mitsuba-0.5.0 (that release's backwards "
+     "interpolation, with which the thesis scenes were rendered)"},
     // place-caches
     {K::Integer, "cache-count", kPlaceCaches, "4000", {}, 1, 4294967295.0, false, false, "caches",
      "Caches in total, camera caches included"},
