@@ -1,9 +1,8 @@
 // Reader for the Mitsuba 0.5/0.6 scene XML subset iris supports (DESIGN.md section 3), with OBJ meshes.
-// Every element and parameter must be understood: unknown plugins, misspelt or unused parameters and
-// missing files are errors that name the file and line. A small documented set of parameters that have
-// no effect in iris (sampler type, film banner, nearClip's siblings, Mitsuba integrator settings other
-// than maxDepth/rrDepth, unreferenced media) is accepted with a warning, so that the thesis's scenes
-// load unchanged.
+// As Mitsuba does, a parameter no plugin reads is a warning naming file, line, plugin and parameter
+// (Mitsuba's "Unqueried attribute"), and so is a plugin iris cannot build that nothing refers to; with
+// SceneLoadOptions::strict an unread parameter is an error instead. Unknown plugins that a shape uses,
+// malformed values and missing files are errors that name the file and line.
 #pragma once
 
 #include <map>
@@ -12,6 +11,7 @@
 #include <vector>
 
 #include "libcommon/scene.h"
+#include "libcommon/spectrum.h"
 
 namespace iris {
 
@@ -28,6 +28,14 @@ struct SceneLoadOptions {
     // With warnings null: print nothing. The tools' --no-scene-warnings: in a pipeline, the stages after
     // the first read the same scene, and repeating its warnings once per stage only buries them.
     bool quiet_warnings = false;
+    // The tools' --strict: a parameter no plugin reads is an error, not a warning (a misspelt name then
+    // cannot silently leave a default in place). Parameters on the documented ignore lists still warn.
+    bool strict = false;
+    // How a tabulated <spectrum value="l:v, ..."> is interpolated between its samples (and the CIE
+    // tables with it): Linear, as the Mitsuba 0.6 core does, or Mitsuba050, the 0.5.0 release's
+    // backwards interpolation inside each segment, with which the thesis's scenes were rendered
+    // (libcommon/spectrum.h). The setting spectrum-interpolation (tools/common/settings.cpp).
+    SpectrumInterpolation spectrum_interpolation = SpectrumInterpolation::Linear;
 };
 
 // Loads the scene, builds lights and the Embree BVH (Scene::finalize). Throws SceneError.

@@ -171,12 +171,14 @@ TriangleMesh parse_serialized(std::string_view b, uint32_t index, const std::str
     Inflater in(stream, what);
 
     const uint32_t flags = in.value<uint32_t>("flags");
+    // Mitsuba reads doubles where the double-precision flag is set and floats otherwise: files of
+    // version 3 (older exporters) carry neither precision flag.
     const bool single = flags & kSingle, dbl = flags & kDouble;
-    if (single == dbl) fail(what, "corrupt serialized mesh: flags 0x" + [&] {
+    if (single && dbl) fail(what, "corrupt serialized mesh: flags 0x" + [&] {
         char h[16];
         std::snprintf(h, sizeof h, "%x", flags);
         return std::string(h);
-    }() + " give neither or both of single and double precision");
+    }() + " give both single and double precision");
     if (d.version == 4) {
         // The shape's name: up to a NUL byte; bounded so that a stream without one fails early.
         for (int i = 0;; ++i) {
@@ -230,9 +232,12 @@ TriangleMesh parse_serialized(std::string_view b, uint32_t index, const std::str
     return m;
 }
 
-std::string serialize_shape(const TriangleMesh& mesh, const std::string& shape_name, bool double_precision) {
+std::string serialize_shape(const TriangleMesh& mesh, const std::string& shape_name, bool double_precision,
+                            int version) {
+    if (version != 3 && version != 4) throw MeshFileError("serialize_shape: version 3 or 4");
+    if (version == 3 && double_precision) throw MeshFileError("serialize_shape: version 3 is single precision");
     std::string raw;
-    uint32_t flags = double_precision ? kDouble : kSingle;
+    uint32_t flags = version == 3 ? 0 : double_precision ? kDouble : kSingle;
     auto real = [&](float v) {
         if (double_precision) put_little(&raw, double(v));
         else put_little(&raw, v);
@@ -241,8 +246,10 @@ std::string serialize_shape(const TriangleMesh& mesh, const std::string& shape_n
     if (!mesh.uvs.empty()) flags |= kTexcoords;
     if (mesh.face_normals) flags |= kFaceNormals;
     put_little(&raw, flags);
-    raw.append(shape_name);
-    raw.push_back('\0');
+    if (version == 4) {
+        raw.append(shape_name);
+        raw.push_back('\0');
+    }
     put_little(&raw, uint64_t(mesh.positions.size()));
     put_little(&raw, uint64_t(mesh.indices.size() / 3));
     for (Vec3 p : mesh.positions)
@@ -257,7 +264,7 @@ std::string serialize_shape(const TriangleMesh& mesh, const std::string& shape_n
     uLongf size = compressBound(uLong(raw.size()));
     std::string out;
     put_little(&out, kFormatTag);
-    put_little(&out, uint16_t(4));
+    put_little(&out, uint16_t(version));
     const size_t head = out.size();
     out.resize(head + size);
     if (compress2(reinterpret_cast<Bytef*>(&out[head]), &size, reinterpret_cast<const Bytef*>(raw.data()),
@@ -267,11 +274,12 @@ std::string serialize_shape(const TriangleMesh& mesh, const std::string& shape_n
     return out;
 }
 
-std::string serialized_dictionary(const std::vector<size_t>& shape_sizes) {
+std::string serialized_dictionary(const std::vector<size_t>& shape_sizes, int version) {
     std::string out;
     uint64_t offset = 0;
     for (size_t s : shape_sizes) {
-        put_little(&out, offset);
+        if (version == 3) put_little(&out, uint32_t(offset));
+        else put_little(&out, offset);
         offset += s;
     }
     put_little(&out, uint32_t(shape_sizes.size()));

@@ -29,8 +29,12 @@ TriangleMesh parse_serialized(std::string_view bytes, uint32_t index, const std:
 
 // Encodes one shape (version 4; single precision, or double), for tests and conversion tools: the
 // inverse of parse_serialized. Concatenate several with serialized_dictionary to make a file.
-std::string serialize_shape(const TriangleMesh& mesh, const std::string& shape_name, bool double_precision = false);
-// The end-of-file dictionary for shapes of the given byte sizes, written one after another.
-std::string serialized_dictionary(const std::vector<size_t>& shape_sizes);
+// Version 3, as older exporters wrote it: no shape name and no precision flag (single precision;
+// double_precision must be false).
+std::string serialize_shape(const TriangleMesh& mesh, const std::string& shape_name, bool double_precision = false,
+                            int version = 4);
+// The end-of-file dictionary for shapes of the given byte sizes, written one after another (offsets of
+// 64 bits in version 4, 32 in version 3).
+std::string serialized_dictionary(const std::vector<size_t>& shape_sizes, int version = 4);
 
 }  // namespace iris

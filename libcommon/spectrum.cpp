@@ -69,6 +69,7 @@ struct MitsubaCurve {
     const float* w = nullptr;  // nm, strictly increasing
     const float* v = nullptr;
     size_t n = 0;
+    bool backwards = true;  // Mitsuba 0.5.0's interpolation; false: the corrected (0.6) one
 
     float eval(float lambda) const {
         if (n < 2 || lambda < w[0] || lambda > w[n - 1]) return 0.0f;
@@ -78,8 +79,9 @@ struct MitsubaCurve {
         if (*hit == lambda) return v[i];
         float a = w[i - 1], b = w[i], fa = v[i - 1], fb = v[i];
         float t = (lambda - a) / (b - a);
-        // Mitsuba's lerp(t, fb, fa): fb at the left end of the segment, fa at the right end.
-        return (1.0f - t) * fb + t * fa;
+        // Mitsuba 0.5.0's lerp(t, fb, fa): fb at the left end of the segment, fa at the right end.
+        if (backwards) return (1.0f - t) * fb + t * fa;
+        return (1.0f - t) * fa + t * fb;
     }
 
     // Mean over [lo, hi] of the correctly interpolated curve (trapezoids), in float, as Mitsuba's
@@ -105,11 +107,25 @@ struct MitsubaCurve {
     }
 };
 
-// Product of a spectrum and one matching function, the integrand of one tristimulus value.
+// Planck's law as Mitsuba 0.5's BlackBodySpectrum::eval computes it: in double, SI units, then per
+// nanometre (the 1e-9) and rounded to float. `lambda` in nm, `kelvin` in K; W m^-2 sr^-1 nm^-1.
+float planck(float lambda, float kelvin) {
+    const double c = 299792458.0;      // speed of light, m/s
+    const double k = 1.3806488e-23;    // Boltzmann constant, J/K (CODATA 2010, Mitsuba's value)
+    const double h = 6.62606957e-34;   // Planck constant, J s (CODATA 2010)
+    const double l = double(lambda) * 1e-9;  // m
+    return float((2 * h * c * c) * std::pow(l, -5.0) / ((std::exp((h / k) * c / (l * double(kelvin))) - 1.0) * 1e9));
+}
+
+// Product of a spectrum and one matching function, the integrand of one tristimulus value. The
+// spectrum is a sampled curve, or (curve null) a black body at `kelvin`.
 struct Product {
     const MitsubaCurve* spectrum;
     const MitsubaCurve* cmf;
-    float operator()(float lambda) const { return spectrum->eval(lambda) * cmf->eval(lambda); }
+    float kelvin = 0;
+    float operator()(float lambda) const {
+        return (spectrum ? spectrum->eval(lambda) : planck(lambda, kelvin)) * cmf->eval(lambda);
+    }
 };
 
 // Adaptive Gauss-Lobatto quadrature in float (Gander & Gautschi's adaptlob), with the tolerance
@@ -208,15 +224,17 @@ float mitsuba_average(const Product& f, float lo, float hi) {
     return integral / (hi - lo);
 }
 
-// Mitsuba 0.5's Spectrum::fromContinuousSpectrum in RGB mode, then clampNegative.
-RGB mitsuba_curve_to_rgb(const MitsubaCurve& s) {
+// Mitsuba 0.5's Spectrum::fromContinuousSpectrum in RGB mode, then clampNegative. `s` null: a black
+// body at `kelvin`. The CIE tables are interpolated like the spectrum (Mitsuba uses one class for both).
+RGB mitsuba_curve_to_rgb(const MitsubaCurve* s, SpectrumInterpolation interpolation, float kelvin = 0) {
     const CieWavelengths& cw = cie_wavelengths();
-    const MitsubaCurve cx{cw.nm, kCieX, size_t(kCieCount)};
-    const MitsubaCurve cy{cw.nm, kCieY, size_t(kCieCount)};
-    const MitsubaCurve cz{cw.nm, kCieZ, size_t(kCieCount)};
-    float x = mitsuba_average(Product{&s, &cx}, kCieFirst, kCieLast);
-    float y = mitsuba_average(Product{&s, &cy}, kCieFirst, kCieLast);
-    float z = mitsuba_average(Product{&s, &cz}, kCieFirst, kCieLast);
+    const bool backwards = interpolation == SpectrumInterpolation::Mitsuba050;
+    const MitsubaCurve cx{cw.nm, kCieX, size_t(kCieCount), backwards};
+    const MitsubaCurve cy{cw.nm, kCieY, size_t(kCieCount), backwards};
+    const MitsubaCurve cz{cw.nm, kCieZ, size_t(kCieCount), backwards};
+    float x = mitsuba_average(Product{s, &cx, kelvin}, kCieFirst, kCieLast);
+    float y = mitsuba_average(Product{s, &cy, kelvin}, kCieFirst, kCieLast);
+    float z = mitsuba_average(Product{s, &cz, kelvin}, kCieFirst, kCieLast);
     const float norm = 1.0f / cy.average(kCieFirst, kCieLast);
     x *= norm;
     y *= norm;
@@ -247,7 +265,8 @@ double lerp_segment(const std::vector<double>& w, const std::vector<double>& v, 
 
 }  // namespace
 
-RGB spectrum_to_rgb(const std::vector<float>& wavelengths, const std::vector<float>& values) {
+RGB spectrum_to_rgb(const std::vector<float>& wavelengths, const std::vector<float>& values,
+                    SpectrumInterpolation interpolation) {
     check_samples(wavelengths, values);
     // Mitsuba's scene parser zero-extends the samples at the mean spacing (point 1 above); the mean
     // is accumulated in float like InterpolatedSpectrum::zeroExtend.
@@ -263,8 +282,14 @@ RGB spectrum_to_rgb(const std::vector<float>& wavelengths, const std::vector<flo
         w.push_back(w.back() + spacing);
         v.push_back(0.0f);
     }
-    const MitsubaCurve s{w.data(), v.data(), w.size()};
-    return mitsuba_curve_to_rgb(s);
+    const MitsubaCurve s{w.data(), v.data(), w.size(), interpolation == SpectrumInterpolation::Mitsuba050};
+    return mitsuba_curve_to_rgb(&s, interpolation);
+}
+
+RGB blackbody_to_rgb(float kelvin, SpectrumInterpolation interpolation) {
+    if (!(kelvin > 0) || !std::isfinite(kelvin))
+        throw std::invalid_argument("blackbody: the temperature must be a positive number of kelvins");
+    return mitsuba_curve_to_rgb(nullptr, interpolation, kelvin);
 }
 
 RGB spectrum_to_rgb_exact(const std::vector<float>& wavelengths, const std::vector<float>& values) {

@@ -34,7 +34,8 @@ for c in "${cases[@]}"; do
   IFS='|' read -r scene ref flags note <<<"$c"
   name=$(basename "$ref" .png)
   exr="$out/$name.exr"
-  log=$("$bin/render" "$seeds/$scene" -o "$exr" --spp "$spp" --seed 1 $flags 2>&1 | tail -1)
+  # The thesis rendered with Mitsuba 0.5.0, whose tabulated spectra interpolate backwards (the setting).
+  log=$("$bin/render" "$seeds/$scene" -o "$exr" --spp "$spp" --seed 1 --set spectrum-interpolation=mitsuba-0.5.0 $flags 2>&1 | tail -1)
   echo "$log"
   secs=$(echo "$log" | sed -n 's/.*spp, \([0-9.]*\) s,.*/\1/p')
   json=$("$bin/compare-images" "$exr" "$refs/$ref" --mitsuba-banner --json \

@@ -283,15 +283,20 @@ void mask(BsdfArgs& a) {
     b.tex_opacity = tex;
 }
 
+// Mitsuba's diffuse and roughdiffuse read `reflectance`, or `diffuseReflectance` where that is absent.
+const char* reflectance_name(BsdfArgs& a) {
+    return a.b.find(a.p, "reflectance") || a.tex.count("reflectance") ? "reflectance" : "diffuseReflectance";
+}
+
 void diffuse(BsdfArgs& a) {
     a.bsdf.type = BsdfType::Diffuse;
-    a.bsdf.diffuse = spectrum_param(a, "reflectance", RGB(0.5f), &a.bsdf.tex_diffuse);
+    a.bsdf.diffuse = spectrum_param(a, reflectance_name(a), RGB(0.5f), &a.bsdf.tex_diffuse);
 }
 
 void roughdiffuse(BsdfArgs& a) {
     Bsdf& b = a.bsdf;
     b.type = BsdfType::RoughDiffuse;
-    b.diffuse = spectrum_param(a, "reflectance", RGB(0.5f), &b.tex_diffuse);
+    b.diffuse = spectrum_param(a, reflectance_name(a), RGB(0.5f), &b.tex_diffuse);
     b.alpha_u = b.alpha_v = alpha_param(a, "alpha", 0.2f, &b.tex_alpha_u);
     b.tex_alpha_v = b.tex_alpha_u;
     if (a.b.get_bool(a.p, "useFastApprox", false))
@@ -413,6 +418,12 @@ void check_bsdf(const Plugin& p, const Bsdf& b) {
 
 }  // namespace
 
+bool bsdf_type_supported(const std::string& type) {
+    for (const BsdfPlugin& k : kBsdfs)
+        if (type == k.name) return true;
+    return false;
+}
+
 // A top-level BSDF only matters through its id (parse_bsdf stores it for later <ref>s).
 void SceneBuilder::top_level_bsdf(const Source& src, pugi::xml_node n) {
     std::string id;
@@ -464,6 +475,7 @@ NamedBsdf& SceneBuilder::named_bsdf(const Source& src, pugi::xml_node n) {
         fail(src, line, "<ref name=" + quote(*name) + ">: only BSDF references are supported");
     auto it = named_bsdfs.find(id);
     if (it == named_bsdfs.end()) {
+        check_not_unbuilt(src, line, id);
         if (const IdInfo* known = id_info(id))
             fail(src, line, "<ref id=" + quote(id) + "> refers to a <" + known->tag + ">, not to a bsdf");
         fail(src, line, "undefined reference " + quote(id) + " (a bsdf must be declared before it is referenced)");

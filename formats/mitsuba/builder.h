@@ -14,9 +14,10 @@
 // mesh -- and EmitterBuilder, each in its file), and add one row {"name", function} to the table
 // there (kBsdfs, kTextures, kShapes, kEmitters). The function queries its parameters from the Plugin
 // with the XmlReader getters (b.get_float(p, "name", default), ...), with Mitsuba's names and
-// defaults; the dispatcher then calls finish(), which rejects every parameter the function did not
-// query. Then add its test (tests/unit/test_scene_loader.cpp or a file beside it) and a line in
-// DESIGN.md's list of supported plugins. formats/README.md says the same.
+// defaults; the dispatcher then calls finish(), which warns about every parameter the function did not
+// query (rejects it with SceneLoadOptions::strict). Then add its test (tests/unit/test_scene_loader.cpp
+// or a file beside it) and a line in DESIGN.md's list of supported plugins. formats/README.md says the
+// same.
 #pragma once
 
 #include <cstdint>
@@ -46,6 +47,15 @@ struct NamedTexture {
     bool used = false;
 };
 
+// A top-level plugin iris cannot build (a BSDF or texture type it does not read), kept by its id: an
+// error once something refers to it, a warning at the end of the scene if nothing does (the picture
+// cannot depend on it).
+struct Unbuilt {
+    std::string tag, type;
+    const Source* src = nullptr;
+    int line = 0;
+};
+
 // A shapegroup's shapes, in the group's own space, kept aside until instances place them (meshes.cpp).
 struct ShapeGroup {
     std::vector<Mesh> meshes;
@@ -63,6 +73,13 @@ public:
     void process_scene(const Source& src, pugi::xml_node root);
     void include(const Source& src, pugi::xml_node n);
     void medium(const Source& src, pugi::xml_node n);
+    // A top-level <bsdf> or <texture> whose type `supported` does not know: kept in `unbuilt` (true),
+    // else false (the caller builds it).
+    bool defer_unsupported(const Source& src, pugi::xml_node n, bool (*supported)(const std::string& type));
+    // Fails if `id` names an unbuilt plugin: `src`:`line` is the <ref> to it.
+    void check_not_unbuilt(const Source& src, int line, const std::string& id) const;
+    // <ref name="interior|exterior"> inside a shape: fails naming the medium (media are not built yet).
+    [[noreturn]] void medium_ref(const Source& src, pugi::xml_node n, const std::string& side) const;
 
     // sensor.cpp
     void integrator(const Source& src, pugi::xml_node n);
@@ -117,9 +134,22 @@ public:
     std::map<std::string, ShapeGroup> groups;
     bool have_sensor = false, have_integrator = false;
     int default_bsdf = -1;  // Mitsuba's default diffuse BSDF, added once when a shape has none
+    int black_bsdf = -1;    // the all-absorbing one Mitsuba gives an emitting shape without a BSDF
+    std::map<std::string, Unbuilt> unbuilt;  // id -> a plugin iris cannot build (defer_unsupported)
+    std::vector<Unbuilt> unbuilt_anonymous;  // the same without an id: they can never be used
+    struct IgnoredMedium {
+        const Source* src;
+        int line;
+        std::string label;
+    };
+    std::vector<IgnoredMedium> media;  // warned about at the end, once no shape has referred to one
     int include_depth = 0;
     bool in_group = false;  // reading a shapegroup's shapes
 };
+
+// Whether the BSDF / texture tables hold a plugin of this type (bsdfs.cpp, textures.cpp).
+bool bsdf_type_supported(const std::string& type);
+bool texture_type_supported(const std::string& type);
 
 // "a, b and c": the names of a plugin table, for "unsupported plugin" messages.
 std::string name_list(const std::vector<std::string>& names, const char* last_separator);

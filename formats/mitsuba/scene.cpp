@@ -31,10 +31,22 @@ Scene SceneBuilder::run(const std::string& path) {
     for (const auto& [id, nt] : named_textures)
         if (!nt.used)
             warn(*nt.src, nt.line, "texture " + quote(id) + " is never referenced");
+    for (const auto& [id, u] : unbuilt)
+        warn(*u.src, u.line, "unsupported plugin " + quote(u.type) + " (" + u.tag + " " + quote(id) +
+                                 ") ignored: nothing refers to it");
+    for (const Unbuilt& u : unbuilt_anonymous)
+        warn(*u.src, u.line, "unsupported plugin " + quote(u.type) + " (" + u.tag + " without an id) ignored: nothing can refer to it");
+    for (const IgnoredMedium& m : media)
+        warn(*m.src, m.line, m.label + " ignored: iris renders no participating media, and no shape refers to it");
     if (scene.lights.empty()) warn(src, src.line_of(root), "the scene has no emitters; it will render black");
 
-    // The parameter overrides change the scene, so they are part of its identity.
+    // The parameter overrides change the scene, so they are part of its identity; so does the
+    // spectrum interpolation where a spectrum depends on it (a scene without one keeps its identity).
     for (const auto& [k, v] : options_.parameters) fingerprint.add(k + "=" + v);
+    if (interpolated_spectrum)
+        fingerprint.add(options_.spectrum_interpolation == SpectrumInterpolation::Linear
+                            ? "spectrum-interpolation=linear"
+                            : "spectrum-interpolation=mitsuba-0.5.0");
     scene.source = path;
     scene.fingerprint = fingerprint.hex();
     return std::move(scene);
@@ -49,11 +61,14 @@ void SceneBuilder::process_scene(const Source& src, pugi::xml_node root) {
         if (tag == "include") include(src, c);
         else if (tag == "integrator") integrator(src, c);
         else if (tag == "sensor") sensor(src, c);
-        else if (tag == "bsdf") top_level_bsdf(src, c);
+        else if (tag == "bsdf") {
+            if (!defer_unsupported(src, c, bsdf_type_supported)) top_level_bsdf(src, c);
+        } else if (tag == "texture") {
+            if (!defer_unsupported(src, c, texture_type_supported)) top_level_texture(src, c);
+        }
         else if (tag == "shape") shape(src, c);
         else if (tag == "emitter") emitter(src, c);
         else if (tag == "medium") medium(src, c);
-        else if (tag == "texture") top_level_texture(src, c);
         else if (tag == "alias" || tag == "null" || tag == "phase" || tag == "subsurface")
             fail(src, src.line_of(c), "<" + tag + "> is not supported by iris");
         else fail(src, src.line_of(c), "unknown element <" + tag + "> in <scene>");
@@ -84,7 +99,41 @@ void SceneBuilder::medium(const Source& src, pugi::xml_node n) {
     register_id(src, line, id, "medium");
     std::string label = "medium";
     if (!id.empty()) label.append(" ").append(quote(id));
-    warn(src, line, label + " ignored: iris renders no participating media, and no shape refers to it");
+    // Warned about at the end: a shape that refers to it fails first (medium_ref), and the warning
+    // would contradict that error.
+    media.push_back({&src, line, label});
+}
+
+bool SceneBuilder::defer_unsupported(const Source& src, pugi::xml_node n, bool (*supported)(const std::string&)) {
+    const std::string type = attr(src, n, "type");
+    if (supported(type)) return false;
+    check_attrs(src, n, {"type", "id", "name"});
+    Unbuilt u{n.name(), type, &src, src.line_of(n)};
+    const std::string id = opt_attr(src, n, "id").value_or("");
+    register_id(src, u.line, id, u.tag);
+    if (id.empty()) unbuilt_anonymous.push_back(u);
+    else unbuilt[id] = u;
+    return true;
+}
+
+void SceneBuilder::check_not_unbuilt(const Source& src, int line, const std::string& id) const {
+    auto it = unbuilt.find(id);
+    if (it == unbuilt.end()) return;
+    const Unbuilt& u = it->second;
+    fail(src, line, "<ref id=" + quote(id) + "> refers to unsupported plugin " + quote(u.type) + " (" + u.tag + " at " +
+                        u.src->path + ":" + std::to_string(u.line) + ")");
+}
+
+void SceneBuilder::medium_ref(const Source& src, pugi::xml_node n, const std::string& side) const {
+    const int line = src.line_of(n);
+    const std::string id = opt_attr(src, n, "id").value_or("");
+    const IdInfo* known = id_info(id);
+    if (known && known->tag != "medium")
+        fail(src, line, "<ref name=" + quote(side) + " id=" + quote(id) + "> refers to a <" + known->tag +
+                            ">; a shape's " + side + " is a medium");
+    fail(src, line, "the shape's " + side + " medium " + quote(id) +
+                        (known ? " (" + known->file + ":" + std::to_string(known->line) + ")" : std::string()) +
+                        ": participating media are not supported yet");
 }
 
 std::string name_list(const std::vector<std::string>& names, const char* last_separator) {

@@ -196,6 +196,10 @@ uint32_t shape_children(SceneBuilder& b, const Plugin& p, pugi::xml_node* emitte
     std::optional<uint32_t> bsdf;
     for (pugi::xml_node c : p.children) {
         std::string tag = c.name();
+        if (tag == "ref") {
+            const std::string name = b.opt_attr(src, c, "name").value_or("");
+            if (name == "interior" || name == "exterior") b.medium_ref(src, c, name);
+        }
         if (tag == "bsdf" || tag == "ref") {
             if (bsdf) fail(src, src.line_of(c), "a shape has one bsdf; this is a second one");
             if (tag == "bsdf") {
@@ -220,8 +224,18 @@ uint32_t shape_children(SceneBuilder& b, const Plugin& p, pugi::xml_node* emitte
             fail(src, src.line_of(c), "<" + tag + "> is not allowed inside a shape");
         }
     }
-    if (!bsdf) {
-        // Mitsuba's default: diffuse, reflectance 0.5. One shared instance.
+    if (!bsdf && *emitter_node) {
+        // Mitsuba's Shape::configure: an emitter (or sensor, or subsurface integrator; iris reads
+        // neither on a shape) without a BSDF gets an all-absorbing one -- diffuse, reflectance 0.
+        if (b.black_bsdf < 0) {
+            Bsdf black;
+            black.diffuse = RGB(0.0f);
+            b.black_bsdf = int(b.add_bsdf(black));
+        }
+        bsdf = uint32_t(b.black_bsdf);
+    } else if (!bsdf) {
+        // Otherwise diffuse, reflectance 0.5 (a medium transition would get a null BSDF; media are
+        // refused). One shared instance.
         if (b.default_bsdf < 0) b.default_bsdf = int(b.add_bsdf(Bsdf()));
         bsdf = uint32_t(b.default_bsdf);
     }

@@ -182,6 +182,12 @@ const TexturePlugin kTextures[] = {
 
 }  // namespace
 
+bool texture_type_supported(const std::string& type) {
+    for (const TexturePlugin& k : kTextures)
+        if (type == k.name) return true;
+    return false;
+}
+
 void SceneBuilder::top_level_texture(const Source& src, pugi::xml_node n) {
     const int line = src.line_of(n);
     const std::string id = opt_attr(src, n, "id").value_or("");
@@ -196,6 +202,7 @@ int16_t SceneBuilder::texture_ref(const Source& src, pugi::xml_node n) {
     const std::string id = attr(src, n, "id");
     auto it = named_textures.find(id);
     if (it == named_textures.end()) {
+        check_not_unbuilt(src, line, id);
         if (const IdInfo* known = id_info(id))
             fail(src, line, "<ref id=" + quote(id) + "> refers to a <" + known->tag + ">, not to a texture");
         fail(src, line, "undefined reference " + quote(id) + " (a texture must be declared before it is referenced)");

@@ -1,5 +1,5 @@
 // The typed values of a plugin element's parameters: numbers, booleans, strings, points, colours
-// (<spectrum>, <rgb>, <srgb>), refractive indices and <transform>s (see xml.h).
+// (in spectra.cpp), refractive indices and <transform>s (see xml.h).
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -114,76 +114,8 @@ std::optional<Vec3> XmlReader::get_point(Plugin& p, const std::string& name) {
     return r;
 }
 
-// <spectrum>, <rgb> or <srgb> -> linear RGB (Mitsuba 0.5 RGB mode; see scenes/thesis/README.md).
-std::optional<RGB> XmlReader::get_spectrum(Plugin& p, const std::string& name) {
-    Prop* prop = find(p, name);
-    if (!prop) return std::nullopt;
-    prop->used = true;
-    const Source& src = *p.src;
-    const int line = prop->line;
-    const std::string w = what(p, *prop);
-    switch (prop->kind) {
-        case Kind::Spectrum: {
-            check_attrs(src, prop->node, {"name", "value", "filename"});
-            check_no_text(src, prop->node);
-            if (prop->node.attribute("filename"))
-                fail(src, line, w + ": spectra from files are not supported; give value=\"nm:value, ...\"");
-            std::string v = attr(src, prop->node, "value");
-            std::vector<std::string_view> t = tokens(v);
-            bool sampled = !t.empty() && t[0].find(':') != std::string_view::npos;
-            if (sampled) {
-                std::vector<float> wl, val;
-                for (std::string_view tok : t) {
-                    size_t c = tok.find(':');
-                    if (c == std::string_view::npos || tok.find(':', c + 1) != std::string_view::npos)
-                        fail(src, line, w + ": bad wavelength:value pair " + quote(tok));
-                    wl.push_back(parse_float(src, line, tok.substr(0, c), w));
-                    val.push_back(parse_float(src, line, tok.substr(c + 1), w));
-                }
-                try {
-                    return spectrum_to_rgb(wl, val);
-                } catch (const std::invalid_argument& e) {
-                    fail(src, line, w + ": " + e.what());
-                }
-            }
-            // One number: the same value in every channel (measured with Mitsuba: value="1"
-            // renders as (1,1,1)). Three numbers: RGB, as Mitsuba's RGB build reads them.
-            if (t.size() == 1) return RGB(parse_float(src, line, t[0], w));
-            if (t.size() == 3)
-                return RGB(parse_float(src, line, t[0], w), parse_float(src, line, t[1], w),
-                           parse_float(src, line, t[2], w));
-            fail(src, line, w + ": a <spectrum> value is one number, three numbers or nm:value pairs, not " + quote(v));
-        }
-        case Kind::Rgb: {
-            std::vector<float> v = parse_floats(src, line, value_of(p, *prop), w);
-            if (v.size() == 1) return RGB(v[0]);
-            if (v.size() == 3) return RGB(v[0], v[1], v[2]);
-            fail(src, line, w + ": an <rgb> value is one or three numbers");
-        }
-        case Kind::Srgb: {
-            std::string v = value_of(p, *prop);
-            RGB c;
-            if (!v.empty() && v[0] == '#') {
-                if (v.size() != 7) fail(src, line, w + ": bad colour " + quote(v) + " (expected #rrggbb)");
-                for (int i = 0; i < 3; ++i) {
-                    unsigned byte = 0;
-                    auto [ptr, ec] = std::from_chars(v.data() + 1 + 2 * i, v.data() + 3 + 2 * i, byte, 16);
-                    if (ec != std::errc() || ptr != v.data() + 3 + 2 * i)
-                        fail(src, line, w + ": bad colour " + quote(v) + " (expected #rrggbb)");
-                    c[i] = float(byte) / 255.0f;
-                }
-            } else {
-                std::vector<float> f = parse_floats(src, line, v, w);
-                if (f.size() == 1) c = RGB(f[0]);
-                else if (f.size() == 3) c = RGB(f[0], f[1], f[2]);
-                else fail(src, line, w + ": an <srgb> value is #rrggbb, one or three numbers");
-            }
-            return RGB(srgb_to_linear(c.r), srgb_to_linear(c.g), srgb_to_linear(c.b));
-        }
-        default: wrong_kind(p, *prop, "a <spectrum>, <rgb> or <srgb>");
-    }
-}
-RGB XmlReader::get_spectrum(Plugin& p, const std::string& name, RGB def) { return get_spectrum(p, name).value_or(def); }
+// get_spectrum: spectra.cpp.
+
 
 // A refractive index given as a number or as one of Mitsuba's material names.
 float XmlReader::get_ior(Plugin& p, const std::string& name, const char* def) {

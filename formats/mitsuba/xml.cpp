@@ -75,6 +75,7 @@ const char* kind_name(Kind k) {
         case Kind::Rgb: return "<rgb>";
         case Kind::Srgb: return "<srgb>";
         case Kind::Spectrum: return "<spectrum>";
+        case Kind::Blackbody: return "<blackbody>";
         case Kind::Transform: return "<transform>";
     }
     return "?";
@@ -90,6 +91,7 @@ std::optional<Kind> kind_of_tag(std::string_view tag) {
     if (tag == "rgb") return Kind::Rgb;
     if (tag == "srgb") return Kind::Srgb;
     if (tag == "spectrum") return Kind::Spectrum;
+    if (tag == "blackbody") return Kind::Blackbody;
     if (tag == "transform") return Kind::Transform;
     return std::nullopt;
 }
@@ -158,12 +160,15 @@ void XmlReader::check_no_text(const Source& src, pugi::xml_node n) {
 
 // ---- $parameters ----------------------------------------------------------------------------
 void XmlReader::collect_defaults(const Source& src, pugi::xml_node root) {
-    for (pugi::xml_node c : root.children("default")) {
-        check_attrs(src, c, {"name", "value"});
-        if (!c.attribute("name") || !c.attribute("value"))
-            fail(src, src.line_of(c), "<default> needs name and value attributes");
-        params_.emplace(c.attribute("name").value(), c.attribute("value").value());  // first one wins
-    }
+    for (pugi::xml_node c : root.children("default")) collect_default(src, c);
+}
+
+void XmlReader::collect_default(const Source& src, pugi::xml_node c) {
+    check_attrs(src, c, {"name", "value"});
+    check_no_text(src, c);
+    if (!c.attribute("name") || !c.attribute("value"))
+        fail(src, src.line_of(c), "<default> needs name and value attributes");
+    params_.emplace(c.attribute("name").value(), c.attribute("value").value());  // first one wins
 }
 
 // Replaces every $identifier by its parameter value; an unknown one is an error.
@@ -227,7 +232,12 @@ Plugin XmlReader::read_plugin(const Source& src, pugi::xml_node n) {
             p.props.push_back(prop);
         } else if (is_plugin_tag(tag)) {
             p.children.push_back(c);
-        } else if (tag == "blackbody" || tag == "animation") {
+        } else if (tag == "default") {
+            // Mitsuba's schema allows <default> in any plugin element, and its value serves every later
+            // $name as one at the top does (the first one of a name wins; the caller's values win over
+            // all). The improved-path-guiding fork's scenes put one inside BSDFs.
+            collect_default(src, c);
+        } else if (tag == "animation") {
             fail(src, src.line_of(c), "<" + tag + "> is not supported");
         } else {
             fail(src, src.line_of(c), "unknown element <" + tag + "> in " + p.what());
@@ -277,8 +287,11 @@ void XmlReader::finish(Plugin& p, const IgnoreRule& ignore) {
         const char* why = ignore ? ignore(prop.name) : nullptr;
         if (why)
             warn(*p.src, prop.line, "parameter " + quote(prop.name) + " of " + p.what() + " ignored: " + why);
-        else
-            fail(*p.src, prop.line, "unknown parameter " + quote(prop.name) + " for " + p.what());
+        else if (options_.strict)
+            fail(*p.src, prop.line, "unknown parameter " + quote(prop.name) + " for " + p.what() + " (--strict)");
+        else  // as Mitsuba's "Unqueried attribute" warning: the scene still renders
+            warn(*p.src, prop.line, "parameter " + quote(prop.name) + " of " + p.what() +
+                                        " is not read by this plugin; ignored (--strict makes it an error)");
     }
 }
 

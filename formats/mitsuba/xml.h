@@ -3,9 +3,10 @@
 // The document is parsed with pugixml; each plugin element (<bsdf>, <shape>, ...) is read into a
 // Plugin: its typed parameters (<float name=...>, <rgb>, <transform>, ...) and its nested plugin
 // elements. The builder of each plugin kind (formats/mitsuba/builder.h) then *queries* the
-// parameters it knows, with Mitsuba's defaults. Whatever was not queried is an error (a misspelt
-// parameter must not silently change a picture), except for a documented list per plugin that has
-// no effect in iris (or none in Mitsuba either), which is accepted with a warning (finish()).
+// parameters it knows, with Mitsuba's defaults. Whatever was not queried is a warning naming file,
+// line, plugin and parameter, as Mitsuba's "Unqueried attribute" (a misspelt parameter must not
+// silently change a picture), and an error with SceneLoadOptions::strict; a documented list per plugin
+// of parameters that have no effect in iris warns in either mode (finish()).
 //
 // Values are read lazily: "$name" substitution and number parsing happen when a parameter is
 // queried, so an ignored parameter (e.g. an ldrfilm label full of "$scene['renderTime']") is never
@@ -109,7 +110,7 @@ std::vector<std::string_view> tokens(std::string_view s);
 
 // ------------------------------------------------------------------------------------------------
 // Parameters and plugins.
-enum class Kind : uint8_t { Float, Integer, Boolean, String, Point, Vector, Rgb, Srgb, Spectrum, Transform };
+enum class Kind : uint8_t { Float, Integer, Boolean, String, Point, Vector, Rgb, Srgb, Spectrum, Blackbody, Transform };
 
 // A typed parameter of a plugin element (<float name="x" value="1"/>), read lazily by the getters.
 struct Prop {
@@ -168,6 +169,8 @@ public:
     // ---- $parameters ----
     // The <default name= value=> children of a <scene> root (the first one of a name wins).
     void collect_defaults(const Source& src, pugi::xml_node root);
+    // One <default> element (at the top or inside a plugin element, as Mitsuba's schema allows).
+    void collect_default(const Source& src, pugi::xml_node c);
     // The caller's values (they override <default>s).
     void set_parameter(const std::string& name, const std::string& value) { params_[name] = value; }
     // Replaces every $identifier by its parameter value; an unknown one is an error.
@@ -205,7 +208,8 @@ public:
     std::optional<std::string> get_string(Plugin& p, const std::string& name);
     std::string get_string(Plugin& p, const std::string& name, const std::string& def);
     std::optional<Vec3> get_point(Plugin& p, const std::string& name);  // <point> or <vector>
-    // <spectrum>, <rgb> or <srgb> -> linear RGB (Mitsuba 0.5 RGB mode; see scenes/thesis/README.md).
+    // <spectrum> (a value, nm:value pairs or an .spd file), <rgb>, <srgb> or <blackbody> -> linear RGB
+    // (Mitsuba 0.5 RGB mode; see scenes/thesis/README.md).
     std::optional<RGB> get_spectrum(Plugin& p, const std::string& name);
     RGB get_spectrum(Plugin& p, const std::string& name, RGB def);
     // A refractive index given as a number or as one of Mitsuba's material names (`def`: a name).
@@ -224,6 +228,9 @@ public:
     // The scene's identity: every file read goes into it (scene files here; meshes and images in
     // the builders).
     Fingerprint fingerprint;
+    // A spectrum that spectrum-interpolation changes was read (tabulated, from a file, a black body):
+    // the setting is then part of the scene's identity (SceneBuilder::run).
+    bool interpolated_spectrum = false;
 
 protected:
     const SceneLoadOptions& options_;

@@ -214,6 +214,15 @@ protected:
         write_text(in("texture_unsupported.xml"),
                    scene_with(sphere + "\n    <bsdf type=\"diffuse\"><texture type=\"wireframe\" name=\"reflectance\"/></bsdf>"));
         write_text(in("misspelt.xml"), scene_with("type=\"sphere\">\n    <float name=\"radus\" value=\"0.5\"/>"));
+        write_text(in("blackbody_negative.xml"),
+                   scene_with(sphere + "\n    <bsdf type=\"diffuse\"><blackbody name=\"reflectance\" temperature=\"-300\"/></bsdf>"));
+        const std::string integrator = "<integrator type=\"path\"/>";
+        write_text(in("medium_interior.xml"),
+                   replace_all(scene_with(sphere + "\n    <ref name=\"interior\" id=\"milk\"/>"), integrator,
+                               integrator + "\n  <medium type=\"homogeneous\" id=\"milk\"/>"));
+        write_text(in("ref_unsupported.xml"),
+                   replace_all(scene_with(sphere + "\n    <ref id=\"cloth\"/>"), integrator,
+                               integrator + "\n  <bsdf type=\"velvet\" id=\"cloth\"/>"));
         write_text(in("bad_number.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"half\"/>"));
         write_text(in("nan_number.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"nan\"/>"));
         write_text(in("negative_radius.xml"), scene_with("type=\"sphere\">\n    <float name=\"radius\" value=\"-1\"/>"));
@@ -279,6 +288,10 @@ protected:
         write_text(in("shape_index.xml"),
                    scene_with(mesh_shape("serialized", "good.serialized", "\n    <integer name=\"shapeIndex\" value=\"2\"/>")));
         write_text(in("good.serialized"), ser);
+        std::string version7 = ser;
+        version7[2] = 7;  // the shape's uint16 version field (Mitsuba writes 3 or 4)
+        write_text(in("serialized_version.xml"), scene_with(mesh_shape("serialized", "version7.serialized")));
+        write_text(in("version7.serialized"), version7);
         fs::create_directory(in("adir"));
     }
     static fs::path dir_;
@@ -344,7 +357,12 @@ const BadInputCase kCases[] = {
     {"TextureGarbage", "render", "bitmap texture file that is not an image", "{in}/texture_garbage.xml -o {out}", "not_a_png.png", "unrecognised image format"},
     {"TextureHdrZeroSize", "render", "Radiance HDR texture of 0 x 0 pixels", "{in}/texture_zero_hdr.xml -o {out}", "texture_zero.hdr", "HDR image has an unsupported size"},
     {"TracePhotonsTextureMissing", "trace-photons", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png", "cannot read texture file"},
-    {"SceneMisspeltParameter", "render", "misspelt parameter (radus)", "{in}/misspelt.xml -o {out}", "radus"},
+    {"SceneMisspeltParameter", "render", "--strict: misspelt parameter (radus; without --strict a warning)", "{in}/misspelt.xml --strict -o {out}", "radus", "unknown parameter"},
+    {"TracePhotonsStrictUnread", "trace-photons", "--strict: a parameter its plugin does not read", "{in}/misspelt.xml --strict -o {out}", "misspelt.xml", "unknown parameter \"radus\""},
+    {"SceneBlackbodyNegative", "render", "blackbody spectrum with a negative temperature", "{in}/blackbody_negative.xml -o {out}", "blackbody_negative.xml", "temperature must be positive"},
+    {"SceneMediumInterior", "render", "a medium as a shape's interior (media are not built)", "{in}/medium_interior.xml -o {out}", "medium \"milk\"", "participating media are not supported yet"},
+    {"SceneRefUnsupported", "render", "a shape refers to a top-level plugin iris does not build (velvet)", "{in}/ref_unsupported.xml -o {out}", "ref_unsupported.xml", "refers to unsupported plugin \"velvet\""},
+    {"RenderSpectrumInterpolationWord", "render", "spectrum-interpolation neither linear nor mitsuba-0.5.0", "{in}/valid.xml --set spectrum-interpolation=cubic -o {out}", "spectrum-interpolation"},
     {"SceneBadNumber", "render", "a number that is not one", "{in}/bad_number.xml -o {out}", "bad_number.xml", "bad number \"half\" for parameter \"radius\""},
     {"SceneNanNumber", "render", "NaN as a parameter value", "{in}/nan_number.xml -o {out}", "nan_number.xml", "bad number \"nan\""},
     {"SceneNegativeRadius", "render", "negative sphere radius", "{in}/negative_radius.xml -o {out}", "radius"},
@@ -372,6 +390,7 @@ const BadInputCase kCases[] = {
     {"PlyCorrupt", "render", "PLY header with an unknown property type", "{in}/corrupt_ply.xml -o {out}", "corrupt.ply", "unknown property type \"flaot\""},
     {"SerializedTruncated", "render", "serialized mesh cut in half", "{in}/truncated_serialized.xml -o {out}", "truncated.serialized", "corrupt or truncated serialized mesh"},
     {"SerializedCorrupt", "render", "serialized mesh with scrambled zlib data", "{in}/corrupt_serialized.xml -o {out}", "corrupt.serialized", "corrupt compressed data"},
+    {"SerializedBadVersion", "render", "serialized mesh of version 7 (Mitsuba writes 3 and 4)", "{in}/serialized_version.xml -o {out}", "version7.serialized", "unsupported serialized mesh version 7"},
     {"SerializedBadShapeIndex", "render", "shapeIndex 2 in a one-shape serialized file", "{in}/shape_index.xml -o {out}", "shapeIndex"},
     {"TracePhotonsSceneMissing", "trace-photons", "scene file does not exist", "{in}/missing.xml -o {out}", "missing.xml", "cannot read the scene file"},
     {"PlaceCachesSceneMalformed", "place-caches", "malformed scene", "{in}/malformed.xml --photon-map {in}/photons.h5 -o {out}", "malformed.xml", "malformed XML"},

@@ -3,6 +3,7 @@
 // which read the same scene.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -48,6 +49,40 @@ TEST(SceneWarnings, ToolPrintsThemUnlessToldNot) {
                                    " --spp 1 -q --no-scene-warnings");
     ASSERT_EQ(quiet.status, 0) << quiet.output;
     EXPECT_EQ(count_lines_starting(quiet.output, "warning: "), 0) << quiet.output;
+}
+
+// A parameter its plugin does not read (Mitsuba: "Unqueried attribute") is a warning naming file:line,
+// plugin and parameter, and the scene renders; --strict makes it the one-line error it used to be, with
+// no output.
+TEST(SceneWarnings, UnreadParameterWarnsAndRendersStrictRefuses) {
+    TempDir dir;
+    std::ifstream in(std::string(IRIS_SOURCE_DIR) + "/tests/data/guiding/caustic_box.xml");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    std::string xml = ss.str();
+    const std::string tag = "<scene version=\"0.5.0\">";
+    const size_t at = xml.find(tag);
+    ASSERT_NE(at, std::string::npos);
+    xml.insert(at + tag.size(), "\n  <shape type=\"sphere\"><float name=\"radius\" value=\"0.01\"/>"
+                                "<float name=\"radus\" value=\"0.5\"/></shape>\n");
+    const int line = 1 + int(std::count(xml.begin(), xml.begin() + std::ptrdiff_t(xml.find("radus")), '\n'));
+    const std::string scene = dir.file("scene.xml");
+    std::ofstream(scene) << xml;
+    const auto r = run_command(tool("render") + " " + scene + " -o " + dir.file("a.exr") + " --spp 1 -q");
+    ASSERT_EQ(r.status, 0) << r.output;
+    EXPECT_NE(r.output.find("warning: " + scene + ":" + std::to_string(line) +
+                            ": parameter \"radus\" of shape \"sphere\" is not read"),
+              std::string::npos)
+        << r.output;
+    EXPECT_TRUE(std::ifstream(dir.file("a.exr")).good());
+    const auto strict = run_command(tool("render") + " " + scene + " -o " + dir.file("b.exr") + " --spp 1 -q --strict");
+    EXPECT_NE(strict.status, 0);
+    EXPECT_EQ(count_lines_starting(strict.output, "render: error: " + scene + ":" + std::to_string(line) +
+                                                      ": unknown parameter \"radus\""),
+              1)
+        << strict.output;
+    EXPECT_EQ(std::count(strict.output.begin(), strict.output.end(), '\n'), 1) << strict.output;
+    EXPECT_FALSE(std::ifstream(dir.file("b.exr")).good());
 }
 
 TEST(SceneWarnings, FullGuidedPipelinePrintsEachOnce) {

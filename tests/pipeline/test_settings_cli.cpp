@@ -60,7 +60,7 @@ TEST(SettingsCli, RenderHelpListsTheEverydayFlagsOnly) {
     std::string line;
     int options = 0;
     while (std::getline(in, line)) options += line.rfind("  -", 0) == 0;
-    EXPECT_LE(options, 18) << r.output;
+    EXPECT_LE(options, 19) << r.output;  // 19: --strict (scene loading, like -D and --no-scene-warnings)
     for (const char* gone : {"--mode", "--caustics", "--connect", "--guide-vertices", "--max-depth", "--learn"})
         EXPECT_EQ(r.output.find(std::string(gone) + " "), std::string::npos) << gone;
 }
@@ -105,7 +105,8 @@ TEST(SettingsCli, OutputsRecordTheSettings) {
     ASSERT_EQ(r.status, 0) << r.output;
     // Every render setting, in the table's order, max-depth as given and rr-depth resolved from the scene.
     EXPECT_EQ(read_exr(dir.file("a.exr")).metadata.at("iris:settings"),
-              "pilot=on; mode=nee+bsdf+cache; guide-vertices=auto; rr-threshold=0.5; rr-depth=5; max-depth=4; "
+              "spectrum-interpolation=linear; pilot=on; mode=nee+bsdf+cache; guide-vertices=auto; rr-threshold=0.5; "
+              "rr-depth=5; max-depth=4; "
               "bsdf-fraction=auto; min-gain=1.25; product=on; caustics=auto; light-paths=auto; connect=auto; "
               "sampler=independent; learn=off; samples-layer=off");
     r = run_command(tool("trace-photons") + " " + scene + " -q --set photon-paths=500 --set photon-depth=5 -o " +
@@ -116,6 +117,7 @@ TEST(SettingsCli, OutputsRecordTheSettings) {
     EXPECT_EQ(p.at("setting:photon-depth"), 5);
     EXPECT_EQ(p.at("setting:photon-count"), 500000);  // the default, unused where photon-paths is set
     EXPECT_EQ(p.at("setting:min-caustic-share"), 0.005);
+    EXPECT_EQ(p.at("setting:spectrum-interpolation"), 0);  // a word as its place in the row: linear
 }
 
 // merge-images names the setting in which two parts differ.

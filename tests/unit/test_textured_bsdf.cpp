@@ -543,8 +543,22 @@ TEST(BumpMap, SceneFileFormsAndErrors) {
     expect_error(shape("<bsdf type=\"bumpmap\">" + tex + tex + "<bsdf type=\"diffuse\"/></bsdf>"), "exactly one displacement");
     expect_error(shape("<bsdf type=\"bumpmap\">" + tex + "<bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf>"),
                  "exactly one nested");
-    expect_error(shape("<bsdf type=\"bumpmap\"><float name=\"scale\" value=\"2\"/>" + tex + "<bsdf type=\"diffuse\"/></bsdf>"),
-                 "scale");
+    // Mitsuba 0.5's bumpmap reads no `scale` (that is the scale texture's): unread, a warning naming it
+    // (as Mitsuba's "Unqueried attribute"), and with --strict an error.
+    const std::string scaled = d.write("scaled.xml", scene_text(shape("<bsdf type=\"bumpmap\"><float name=\"scale\" value=\"2\"/>" +
+                                                                      tex + "<bsdf type=\"diffuse\"/></bsdf>")));
+    std::vector<std::string> unread;
+    SceneLoadOptions lenient;
+    lenient.warnings = &unread;
+    EXPECT_NO_THROW(load_scene(scaled, lenient));
+    int scale_warnings = 0;
+    for (const std::string& w : unread)
+        scale_warnings += w.find("scaled.xml:") != std::string::npos &&
+                          w.find("parameter \"scale\" of bsdf \"bumpmap\" is not read") != std::string::npos;
+    EXPECT_EQ(scale_warnings, 1);
+    SceneLoadOptions strict = lenient;
+    strict.strict = true;
+    EXPECT_THROW(load_scene(scaled, strict), SceneError);
 }
 
 // The bilinear gradient is the interpolant's derivative (against a central difference of texture_eval),

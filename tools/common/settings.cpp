@@ -31,6 +31,12 @@ const std::vector<SettingRow> kTable = {
      "Stop a photon path whose power fell below this"},
     {K::Number, "min-caustic-share", kPhotonsAndCaches, "0.005", {}, 0, 1, false, false, "fraction of the photon power",
      "Below this share of light through specular chains no caches are placed (unguided render); 0 = always guide"},
+    // every stage that loads the scene
+    {K::Word, "spectrum-interpolation", kTracePhotons | kPlaceCaches | kRender, "linear", {"linear", "mitsuba-0.5.0"},
+     0, 0, false, false, "-",
+     "How a scene's tabulated spectra (nm:value pairs, .spd files; black bodies through the CIE tables) are "
+     "interpolated between samples: linear (Mitsuba 0.6's core) or mitsuba-0.5.0 (that release's backwards "
+     "interpolation, with which the thesis scenes were rendered)"},
     // place-caches
     {K::Integer, "cache-count", kPlaceCaches, "4000", {}, 1, 4294967295.0, false, false, "caches",
      "Caches in total, camera caches included"},
@@ -111,6 +117,15 @@ bool parse_number(const std::string& s, bool integer, double* out) {
     if (errno || end != s.c_str() + s.size() || !std::isfinite(v)) return false;
     *out = v;
     return true;
+}
+
+// A Word setting's value as its place in the row's list of words (for the HDF5 provenance, which holds
+// numbers), or -1.
+int word_index(const SettingRow& row, const std::string& value) {
+    if (row.kind != K::Word) return -1;
+    for (size_t i = 0; i < row.words.size(); ++i)
+        if (value == row.words[i]) return int(i);
+    return -1;
 }
 
 }  // namespace
@@ -215,6 +230,7 @@ void Settings::add_to_parameters(std::map<std::string, double>* parameters) cons
     for (const auto& [name, value] : values_) {
         double v = 0;
         if (value == "on" || value == "off") v = value == "on" ? 1 : 0;
+        else if (const int w = word_index(row(name), value); w >= 0) v = w;  // another word: its place in the row
         else if (!parse_number(value, false, &v)) throw std::logic_error("setting \"" + name + "\" is not a number");
         (*parameters)["setting:" + name] = v;
     }

@@ -58,7 +58,7 @@ public:
     // "name=value; name=value; ..." in table order: every setting of the stage, as it ran.
     std::string record() const;
     // The record as provenance parameters of an HDF5 stage file: "setting:NAME" -> value (on/off as
-    // 1/0; the three preprocessing stages have no other words).
+    // 1/0, another word as its place in the row's list: spectrum-interpolation linear 0, mitsuba-0.5.0 1).
     void add_to_parameters(std::map<std::string, double>* parameters) const;
     // name -> value, from a record.
     static std::map<std::string, std::string> parse_record(const std::string& record);

@@ -81,13 +81,32 @@ inline bool parse_range(const std::string& s, uint64_t* a, uint64_t* b) {
     return true;
 }
 
-// The options of every tool that reads a scene: -D name=value (for $name in the scene file) and
-// --no-scene-warnings.
-inline void add_scene_options(CLI::App& app, std::vector<std::string>* defines, bool* no_scene_warnings) {
+// --strict: a parameter no plugin reads is an error (SceneLoadOptions::strict), for every tool that
+// loads a scene.
+inline void add_strict_option(CLI::App& app, bool* strict) {
+    app.add_flag("--strict", *strict,
+                 "A scene parameter that its plugin does not read is an error, not a warning (Mitsuba warns: "
+                 "\"Unqueried attribute\")");
+}
+
+// --spectrum-interpolation for the tools that load a scene outside the stages (export-scene,
+// inspect-caches), which have no settings table: the same words as the setting of that name.
+inline void add_spectrum_interpolation_option(CLI::App& app, std::string* value) {
+    app.add_option("--spectrum-interpolation", *value,
+                   "linear (default) or mitsuba-0.5.0: how tabulated spectra are interpolated, as the stages' "
+                   "setting spectrum-interpolation")
+        ->check(CLI::IsMember({"linear", "mitsuba-0.5.0"}));
+}
+
+// The options of every stage tool that reads a scene: -D name=value (for $name in the scene file),
+// --no-scene-warnings and --strict.
+inline void add_scene_options(CLI::App& app, std::vector<std::string>* defines, bool* no_scene_warnings,
+                              bool* strict) {
     app.add_option("-D,--define", *defines, "Scene parameter name=value (for $name in the scene file)");
     app.add_flag("--no-scene-warnings", *no_scene_warnings,
                  "Do not print the scene's warnings (ignored parameters); pipelines/guided.mk passes it to the "
                  "stages after trace-photons, which prints them once");
+    add_strict_option(app, strict);
 }
 
 // "-D name=value" options into a parameter map (for $name in scene files).

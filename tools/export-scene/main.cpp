@@ -55,11 +55,18 @@ int main(int argc, char** argv) {
     app.add_option("-o,--output", output, "JSON file to write")->required();
     app.add_option("--resolution", resolution, "Film size WxH the camera is prepared for (default: the scene's)");
     app.add_option("-D,--define", defines, "Scene parameter name=value (for $name in the scene file)");
+    bool strict = false;
+    std::string interpolation = "linear";
+    iris::add_strict_option(app, &strict);
+    iris::add_spectrum_interpolation_option(app, &interpolation);
     if (int rc = iris::parse_command_line(app, argc, argv, "export-scene"); rc >= 0) return rc;
     try {
         iris::check_output_path(output);
         iris::SceneLoadOptions opt;
         opt.parameters = iris::parse_defines(defines);
+        opt.strict = strict;
+        opt.spectrum_interpolation = interpolation == "linear" ? iris::SpectrumInterpolation::Linear
+                                                               : iris::SpectrumInterpolation::Mitsuba050;
         iris::Scene scene = iris::parse_scene(path, opt);
         int w = scene.film.width, h = scene.film.height;
         if (!resolution.empty()) iris::parse_resolution(resolution, &w, &h);

@@ -31,6 +31,8 @@ int main(int argc, char** argv) {
     app.add_option("--scene", scene_path, "The scene the atlas was made for (with --pixel)");
     app.add_option("--resolution", resolution, "Image size WxH that --pixel refers to (default: the scene's film)");
     app.add_option("-D,--define", defines, "Scene parameter name=value (for $name in the scene file)");
+    std::string interpolation = "linear";  // part of the scene's fingerprint where a tabulated spectrum is read
+    iris::add_spectrum_interpolation_option(app, &interpolation);
     app.add_option("-o,--output", output,
                    "Write the cache's PDF as an image: .exr (density per steradian) or .png (grey, scaled to its "
                    "maximum)");
@@ -71,6 +73,8 @@ int main(int argc, char** argv) {
         if (!scene_path.empty()) {
             iris::SceneLoadOptions lo;
             lo.parameters = iris::parse_defines(defines);
+            lo.spectrum_interpolation = interpolation == "linear" ? iris::SpectrumInterpolation::Linear
+                                                                  : iris::SpectrumInterpolation::Mitsuba050;
             scene = iris::load_scene(scene_path, lo);
             expected_fingerprint = scene.fingerprint;
         }

@@ -27,8 +27,8 @@ int main(int argc, char** argv) {
     app.add_option("-t,--threads", opt.threads, "Worker threads (default: all cores)");
     app.add_option("--seed", opt.seed, "Random seed");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
-    bool no_scene_warnings = false;
-    iris::add_scene_options(app, &defines, &no_scene_warnings);
+    bool no_scene_warnings = false, strict = false;
+    iris::add_scene_options(app, &defines, &no_scene_warnings, &strict);
     if (int rc = iris::parse_command_line(app, argc, argv, "place-caches"); rc >= 0) return rc;
     try {
         if (!resolution.empty()) iris::parse_resolution(resolution, &opt.width, &opt.height);
@@ -43,6 +43,10 @@ int main(int argc, char** argv) {
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
         lo.quiet_warnings = no_scene_warnings;
+        lo.strict = strict;
+        lo.spectrum_interpolation = settings.is("spectrum-interpolation", "linear")
+                                        ? iris::SpectrumInterpolation::Linear
+                                        : iris::SpectrumInterpolation::Mitsuba050;
         iris::Scene scene = iris::load_scene(scene_path, lo);
         iris::PlacementStats stats;
         // Skipping what the scene does not need: without light through specular chains, every path the

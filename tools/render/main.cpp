@@ -99,8 +99,8 @@ int main(int argc, char** argv) {
                    "store the film's sums so that `merge-images` adds the parts into the image of one run; needs a "
                    "fixed --spp and pilot=off");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
-    bool no_scene_warnings = false;
-    iris::add_scene_options(app, &defines, &no_scene_warnings);
+    bool no_scene_warnings = false, strict = false;
+    iris::add_scene_options(app, &defines, &no_scene_warnings, &strict);
     if (int rc = iris::parse_command_line(app, argc, argv, "render"); rc >= 0) return rc;
     try {
         iris::Settings settings(iris::kRender, "render");
@@ -128,6 +128,10 @@ int main(int argc, char** argv) {
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
         lo.quiet_warnings = no_scene_warnings;
+        lo.strict = strict;
+        lo.spectrum_interpolation = settings.is("spectrum-interpolation", "linear")
+                                        ? iris::SpectrumInterpolation::Linear
+                                        : iris::SpectrumInterpolation::Mitsuba050;
         opt.command_line = iris::join_args(argc, argv);
         iris::Scene scene = iris::load_scene(scene_path, lo);
         apply_settings(settings, scene, !atlas_path.empty(), &opt, &guide_options);

@@ -28,8 +28,8 @@ int main(int argc, char** argv) {
                    "A:B -- trace only paths A..B-1 of the photon-paths in all (flux normalised by the total), seeded as in "
                    "one run; `merge-photons` joins the parts into the map of one run");
     app.add_flag("-q,--quiet", opt.quiet, "No progress output");
-    bool no_scene_warnings = false;
-    iris::add_scene_options(app, &defines, &no_scene_warnings);
+    bool no_scene_warnings = false, strict = false;
+    iris::add_scene_options(app, &defines, &no_scene_warnings, &strict);
     if (int rc = iris::parse_command_line(app, argc, argv, "trace-photons"); rc >= 0) return rc;
     try {
         iris::Settings settings(iris::kTracePhotons, "trace-photons");
@@ -58,6 +58,10 @@ int main(int argc, char** argv) {
         iris::SceneLoadOptions lo;
         lo.parameters = iris::parse_defines(defines);
         lo.quiet_warnings = no_scene_warnings;
+        lo.strict = strict;
+        lo.spectrum_interpolation = settings.is("spectrum-interpolation", "linear")
+                                        ? iris::SpectrumInterpolation::Linear
+                                        : iris::SpectrumInterpolation::Mitsuba050;
         iris::Scene scene = iris::load_scene(scene_path, lo);
         iris::PhotonStats stats;
         // A scene without caustics skips guiding (place-caches); tracing its photons would only cost time.
