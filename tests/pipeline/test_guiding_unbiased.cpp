@@ -249,6 +249,16 @@ void expect_nee_modes_agree(const std::string& scene_file, const std::string& fl
 // The tiles cover about a quarter of the image.
 TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) { expect_nee_modes_agree("guiding/layered_tiles_box.xml", ""); }
 
+// The same on tiles of phong, a mixturebsdf (a silver mirror beside a white diffuse, weights 1, 1: the
+// mirror is a Dirac lobe the cache leaves alone, the diffuse part is replaced) and a blendbsdf with a
+// textured weight (a diffuse and a rough conductor, each guidable in proportion to its weight):
+// tests/data/guiding/mixture_tiles_box.xml. Every vertex guided, and the photons and caches see the
+// mixtures too. Checked to fail: the mixture's guidable share over-reporting its mirror part
+// (bsdf_guidable_share without the parts' own shares) is rejected.
+TEST(GuidingUnbiased, PhongAndMixturesKeepTheImage) {
+    expect_nee_modes_agree("guiding/mixture_tiles_box.xml", "--set guide-vertices=0 --set rr-threshold=0.1");
+}
+
 // The same on glossy metal tiles (a rough conductor, a Ward without a diffuse part), where the cache
 // technique samples the map's product with the glossy lobe (render --set product=on, Guide::product): its
 // density p = d_k e_K / Z must be the one its samples come from, with MIS against NEE and the BSDF, and

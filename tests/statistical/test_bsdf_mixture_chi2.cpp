@@ -119,7 +119,9 @@ TEST_P(MixtureChi2, SampleMatchesPdf) {
     o.test_count = int(all_configs().size());
     o.seed = 3000 + GetParam();
     const float g = bsdf_guidable_share(c.b, c.wi);
-    if (c.guided) ASSERT_GT(g, 0.0f);
+    if (c.guided) {
+        ASSERT_GT(g, 0.0f);
+    }
     auto sampler = [&](Rng& rng) {
         test::DirSample d;
         const Vec2 u{rng.next_float(), rng.next_float()};

@@ -272,7 +272,9 @@ TEST(BsdfMixture, EnergyOfPhongAndMixtures) {
         // At normal incidence the lobe lies above the horizon up to cos^n's tail: kd + ks exactly.
         const double a = albedo(phong(RGB(0.5f), RGB(0.49f), 200), wi);
         EXPECT_LE(a, 0.99 + 3e-3);
-        if (theta == 0) EXPECT_NEAR(a, 0.99, 3e-3);
+        if (theta == 0) {
+            EXPECT_NEAR(a, 0.99, 3e-3);
+        }
         const double d = albedo(diffuse(RGB(1)), wi), p = albedo(phong(RGB(0), RGB(1), 20), wi);
         EXPECT_NEAR(albedo(mix({{0.25f, diffuse(RGB(1))}, {0.75f, phong(RGB(0), RGB(1), 20)}}), wi), 0.25 * d + 0.75 * p, 5e-3);
     }
