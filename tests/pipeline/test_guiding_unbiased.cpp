@@ -253,8 +253,9 @@ TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) { expect_nee_modes_agree("
 // mirror is a Dirac lobe the cache leaves alone, the diffuse part is replaced) and a blendbsdf with a
 // textured weight (a diffuse and a rough conductor, each guidable in proportion to its weight):
 // tests/data/guiding/mixture_tiles_box.xml. Every vertex guided, and the photons and caches see the
-// mixtures too. Checked to fail: the mixture's guidable share over-reporting its mirror part
-// (bsdf_guidable_share without the parts' own shares) is rejected.
+// mixtures too (about 14 s on two cores). Checked to fail: the mixture's guidable share counting its mirror
+// part as replaceable (pixel |z| 15-17), and bsdf_sample's lobe choice ignoring the parts' shares, so
+// that uc >= 1 - share can pick the mirror (pixel |z| 9-10, block 13-22).
 TEST(GuidingUnbiased, PhongAndMixturesKeepTheImage) {
     expect_nee_modes_agree("guiding/mixture_tiles_box.xml", "--set guide-vertices=0 --set rr-threshold=0.1");
 }
