@@ -534,8 +534,10 @@ bool sample_front(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s, Trans
             }
             return finish_nondelta(b, wi, s);
         }
-        case BsdfType::Phong:
-            return detail::phong_sample_direction(b, wi, u, uc, &s->wo) && finish_nondelta(b, wi, s);
+        case BsdfType::Phong:  // (the diffuse part: diffuse's own warp, so that guiding's u maps alike)
+            s->wo = cosine_hemisphere(u);
+            if (uc < b.specular_sampling_weight && !detail::phong_sample_lobe(b, wi, u, &s->wo)) return false;
+            return finish_nondelta(b, wi, s);
         case BsdfType::Ward: {
             if (uc < b.specular_sampling_weight) {
                 // Half vector from the anisotropic Beckmann slope distribution: slopes (x, y) Gaussian

@@ -34,18 +34,12 @@ float phong_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
     return w * lobe_pdf(b.alpha_u, dot(wo, mirror(wi))) + (1 - w) * wo.z * kInvPi;
 }
 
-bool phong_sample_direction(const Bsdf& b, Vec3 wi, Vec2 u, float uc, Vec3* wo) {
-    if (uc < b.specular_sampling_weight) {
-        // Inverting the lobe's cumulative distribution in cos alpha: cos alpha = u^(1 / (n + 1)).
-        const float n = b.alpha_u;
-        const float cos_a = std::pow(u.y, 1.0f / (n + 1)), sin_a = safe_sqrt(1 - cos_a * cos_a);
-        const float phi = 2 * kPi * u.x;
-        *wo = Frame(mirror(wi)).to_world(Vec3(sin_a * std::cos(phi), sin_a * std::sin(phi), cos_a));
-        return wo->z > 0;
-    }
-    // Cosine-weighted hemisphere (Malley's method on a uniform disk sample; density cos / pi).
-    const float r = std::sqrt(u.x), phi = 2 * kPi * u.y;
-    *wo = Vec3(r * std::cos(phi), r * std::sin(phi), safe_sqrt(1 - u.x));
+bool phong_sample_lobe(const Bsdf& b, Vec3 wi, Vec2 u, Vec3* wo) {
+    // Inverting the lobe's cumulative distribution in cos alpha: cos alpha = u^(1 / (n + 1)).
+    const float n = b.alpha_u;
+    const float cos_a = std::pow(u.y, 1.0f / (n + 1)), sin_a = safe_sqrt(1 - cos_a * cos_a);
+    const float phi = 2 * kPi * u.x;
+    *wo = Frame(mirror(wi)).to_world(Vec3(sin_a * std::cos(phi), sin_a * std::sin(phi), cos_a));
     return wo->z > 0;
 }
 
