@@ -104,7 +104,8 @@ std::vector<Case> cases() {
     c.push_back({"mixture_mirror_diffuse", mix({{1, conductor(RGB(0.078f))}, {1, diffuse(RGB(0.99f))}}), true});
     c.push_back({"mixture_rough_three", mix({{0.2f, rough(BsdfType::RoughConductor, 0.3f)}, {0.5f, diffuse(col)},
                                              {0.3f, phong(RGB(0.1f), RGB(0.5f), 40)}})});
-    // glass_of_milk's table: blend 0.3 of a diffuse and a rough glass (transmits).
+    // A blend as on glass_of_milk's table (there a diffuse and a rough conductor, weight 0.3; here rough
+    // glass, which transmits).
     c.push_back({"blend_diffuse_roughglass", mix({{0.7f, diffuse(RGB(0.05f, 0, 0))}, {0.3f, rough(BsdfType::RoughDielectric, 0.2f)}}),
                  false, true});
     Bsdf nested = mix({{0.5f, mix({{1, conductor(RGB(1))}, {1, phong(col, RGB(0.1f), 10)}})}, {0.5f, rough(BsdfType::RoughPlastic, 0.1f)}});
