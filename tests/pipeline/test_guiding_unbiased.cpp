@@ -259,6 +259,15 @@ TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) { expect_nee_modes_agree("
 TEST(GuidingUnbiased, PhongAndMixturesKeepTheImage) {
     expect_nee_modes_agree("guiding/mixture_tiles_box.xml", "--set guide-vertices=0 --set rr-threshold=0.1");
 }
+// The same with caustic connections and the caustic light tracer, on the scene without its glass sphere
+// (tests/data/guiding/mixture_mirror_box.xml; through the glass, such per-pixel tests are heavy-tailed:
+// with the sphere, the largest pixel |z| wandered between pixels and did not grow with 4x the samples):
+// light the mixture's mirror part reflects onto the walls is a caustic both techniques make (the mirror
+// part continues light paths, the diffuse part ends them and receives connections).
+TEST(GuidingUnbiased, MixtureMirrorCausticsKeepTheImage) {
+    expect_nee_modes_agree("guiding/mixture_mirror_box.xml",
+                           "--set connect=on --set caustics=on --set guide-vertices=0 --set rr-threshold=0.1");
+}
 
 // The same on glossy metal tiles (a rough conductor, a Ward without a diffuse part), where the cache
 // technique samples the map's product with the glossy lobe (render --set product=on, Guide::product): its
