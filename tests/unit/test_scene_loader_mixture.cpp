@@ -170,6 +170,18 @@ TEST(LoaderBlend, WeightConstantTextureAndClamp) {
     EXPECT_FLOAT_EQ(scene_bsdf_at(t, hit, &scratch).part[0]->diffuse.g, 0.2f);
 }
 
+// Around a mixture, bumpmap and twosided wrap the whole (Scene::intersect bumps the hit's frame, which
+// every part then sees; the back side mirrors the front for every part).
+TEST(LoaderMixture, WrappedInBumpmapAndTwosided) {
+    const Scene s = load(scene("<bsdf type=\"twosided\"><bsdf type=\"bumpmap\"><texture type=\"checkerboard\"/>"
+                               "<bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/><bsdf type=\"phong\"/></bsdf></bsdf></bsdf>"));
+    const Bsdf& b = sphere_bsdf(s);
+    EXPECT_EQ(b.type, BsdfType::Mixture);
+    EXPECT_TRUE(b.two_sided);
+    EXPECT_GE(b.tex_bump, 0);
+    EXPECT_EQ(b.part[1]->type, BsdfType::Phong);
+}
+
 TEST(LoaderMixture, RefusedAsMitsubaRefuses) {
     const std::string d = "<bsdf type=\"diffuse\"/>";
     expect_error(scene("<bsdf type=\"mixturebsdf\"><string name=\"weights\" value=\"1, 2\"/>" + d + d + d + "</bsdf>"), 4,
