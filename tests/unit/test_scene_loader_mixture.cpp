@@ -199,6 +199,9 @@ TEST(LoaderMixture, RefusedAsMitsubaRefuses) {
     expect_error(scene("<bsdf type=\"phong\"><float name=\"exponent\" value=\"-1\"/></bsdf>"), 4, "exponent must be");
     expect_error(scene("<bsdf type=\"blendbsdf\"><bsdf type=\"bumpmap\"><texture type=\"checkerboard\"/>" + d + "</bsdf>" + d + "</bsdf>"),
                  4, "a bumpmap inside");
+    expect_error(scene("<bsdf type=\"mixturebsdf\"><string name=\"weights\" value=\"1 1\"/><bsdf type=\"mask\">"
+                       "<spectrum name=\"opacity\" value=\"0.5\"/>" + d + "</bsdf>" + d + "</bsdf>"),
+                 4, "a mask inside");
 }
 
 }  // namespace
