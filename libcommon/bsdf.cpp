@@ -24,6 +24,7 @@
 #include <cfloat>
 #include <cmath>
 
+#include "libcommon/bsdf_parts.h"
 #include "libcommon/microfacet.h"
 
 namespace iris {
@@ -323,6 +324,8 @@ RGB eval_front(const Bsdf& b, Vec3 wi, Vec3 wo, TransportMode mode) {
         case BsdfType::ThinDielectric:
         case BsdfType::Conductor:
             return RGB(0.0f);  // Dirac lobes only
+        case BsdfType::Mixture:
+            return detail::mixture_eval(b, wi, wo, mode);
         case BsdfType::RoughDielectric:
             return rough_dielectric_eval(b, wi, wo, mode);  // both sides
         default:
@@ -353,6 +356,8 @@ RGB eval_front(const Bsdf& b, Vec3 wi, Vec3 wo, TransportMode mode) {
             result += plastic_diffuse(b) * (b.inv_eta2 * (1.0f - Fi) * (1.0f - Fo) * kInvPi * wo.z);
             return result;
         }
+        case BsdfType::Phong:
+            return detail::phong_eval(b, wi, wo);
         case BsdfType::Ward: {
             const double spec = ward_specular(b, wi, wo);
             RGB result;
@@ -366,6 +371,7 @@ RGB eval_front(const Bsdf& b, Vec3 wi, Vec3 wo, TransportMode mode) {
 }
 
 float pdf_front(const Bsdf& b, Vec3 wi, Vec3 wo) {
+    if (b.type == BsdfType::Mixture) return detail::mixture_pdf(b, wi, wo);
     if (bsdf_is_delta(b)) return 0.0f;
     if (b.type == BsdfType::RoughDielectric) return rough_dielectric_pdf(b, wi, wo);
     if (wi.z <= 0 || wo.z <= 0) return 0.0f;
@@ -386,6 +392,8 @@ float pdf_front(const Bsdf& b, Vec3 wi, Vec3 wo) {
             if (p_spec > 0) p += p_spec * microfacet_reflection_pdf(plastic_distribution(b), wi, normalize(wi + wo));
             return p;
         }
+        case BsdfType::Phong:
+            return detail::phong_pdf(b, wi, wo);
         case BsdfType::Ward: {
             const double w = b.specular_sampling_weight;
             double p = (1.0 - w) * cosine_pdf(wo);
@@ -459,6 +467,8 @@ bool sample_front(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s, Trans
         }
         case BsdfType::RoughDielectric:
             return rough_dielectric_sample(b, wi, u, uc, s, mode);
+        case BsdfType::Mixture:
+            return detail::mixture_sample(b, wi, u, uc, s, mode);
         case BsdfType::Conductor: {
             if (wi.z <= 0) return false;
             s->wo = reflect_normal(wi);
@@ -524,6 +534,10 @@ bool sample_front(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s, Trans
             }
             return finish_nondelta(b, wi, s);
         }
+        case BsdfType::Phong:  // (the diffuse part: diffuse's own warp, so that guiding's u maps alike)
+            s->wo = cosine_hemisphere(u);
+            if (uc < b.specular_sampling_weight && !detail::phong_sample_lobe(b, wi, u, &s->wo)) return false;
+            return finish_nondelta(b, wi, s);
         case BsdfType::Ward: {
             if (uc < b.specular_sampling_weight) {
                 // Half vector from the anisotropic Beckmann slope distribution: slopes (x, y) Gaussian
@@ -577,14 +591,15 @@ float coat_share(const Bsdf& b, Vec3 wi) {
         case BsdfType::Plastic:
         case BsdfType::RoughPlastic:
             return plastic_prob_specular(fresnel_dielectric(wi.z, b.ior), b.specular_sampling_weight);
-        case BsdfType::Ward: return b.specular_sampling_weight < 1 ? b.specular_sampling_weight : 0.0f;
+        case BsdfType::Ward:
+        case BsdfType::Phong: return b.specular_sampling_weight < 1 ? b.specular_sampling_weight : 0.0f;
         default: return 0.0f;
     }
 }
 // Whether the replaceable part is the cosine lobe (layered BSDFs) rather than the whole BSDF.
 bool layered(const Bsdf& b) {
     return b.type == BsdfType::Plastic || b.type == BsdfType::RoughPlastic ||
-           (b.type == BsdfType::Ward && b.specular_sampling_weight < 1);
+           ((b.type == BsdfType::Ward || b.type == BsdfType::Phong) && b.specular_sampling_weight < 1);
 }
 
 }  // namespace
@@ -629,6 +644,10 @@ float bsdf_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
 }
 
 float bsdf_guidable_share(const Bsdf& b, Vec3 wi) {
+    if (b.type == BsdfType::Mixture) {  // (each part folds its own twosided; the mixture's first)
+        if (b.two_sided && wi.z < 0) wi.z = -wi.z;
+        return detail::mixture_guidable_share(b, wi);
+    }
     // A cache's map covers one hemisphere: it cannot stand in for a lobe that also refracts.
     if (bsdf_is_delta(b) || bsdf_transmits(b)) return 0.0f;
     if (b.two_sided && wi.z < 0) wi.z = -wi.z;
@@ -640,6 +659,7 @@ float bsdf_guidable_pdf(const Bsdf& b, Vec3 wi, Vec3 wo) {
         wi.z = -wi.z;
         wo.z = -wo.z;
     }
+    if (b.type == BsdfType::Mixture) return detail::mixture_guidable_pdf(b, wi, wo);
     if (bsdf_transmits(b)) return 0.0f;
     if (!layered(b)) return pdf_front(b, wi, wo);
     if (wi.z <= 0 || wo.z <= 0) return 0.0f;
@@ -655,10 +675,13 @@ bool bsdf_sample(const Bsdf& b, Vec3 wi, Vec2 u, float uc, BsdfSample* s, Transp
 }
 
 bool bsdf_is_delta(const Bsdf& b) {
+    if (b.type == BsdfType::Mixture) return b.mix_delta;
     return b.type == BsdfType::Dielectric || b.type == BsdfType::ThinDielectric || b.type == BsdfType::Conductor;
 }
 
-bool bsdf_has_delta_lobe(const Bsdf& b) { return bsdf_is_delta(b) || b.type == BsdfType::Plastic; }
+bool bsdf_has_delta_lobe(const Bsdf& b) {
+    return bsdf_is_delta(b) || b.type == BsdfType::Plastic || (b.type == BsdfType::Mixture && b.mix_has_delta);
+}
 
 // Mitsuba 0.5's plastic computes its diffuse Fresnel reflectances with fresnelDiffuseReflectance(eta,
 // fast = false), i.e. by numerical integration, not with the published fits (d'Eon & Irving 2011 for

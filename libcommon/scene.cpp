@@ -29,10 +29,22 @@ void Scene::finalize() {
     if (meshes.empty() && spheres.empty()) bounds_min = bounds_max = Vec3(0);
     for (Bsdf& b : bsdfs) {
         bsdf_prepare(b);
-        for (int16_t i : {b.tex_diffuse, b.tex_specular, b.tex_transmittance, b.tex_alpha_u, b.tex_alpha_v, b.tex_opacity})
+        for (int16_t i : {b.tex_diffuse, b.tex_specular, b.tex_transmittance, b.tex_alpha_u, b.tex_alpha_v, b.tex_opacity, b.tex_blend})
             if (i >= 0 && size_t(i) >= textures.size())
                 throw std::runtime_error("a BSDF refers to texture " + std::to_string(i) + " of " +
                                          std::to_string(textures.size()));
+    }
+    // A Mixture's parts are entries of this array added before it (the loader adds a part as it reads
+    // it), so linking in index order finds every part already linked.
+    for (size_t k = 0; k < bsdfs.size(); ++k) {
+        Bsdf& b = bsdfs[k];
+        if (b.type != BsdfType::Mixture) continue;
+        const Bsdf* parts[kMaxBsdfParts];
+        for (int i = 0; i < b.part_count; ++i) {
+            if (b.part_index[i] >= k) throw std::runtime_error("a mixture BSDF's part is not an earlier BSDF");
+            parts[i] = &bsdfs[b.part_index[i]];
+        }
+        bsdf_link_parts(b, parts);
     }
     lights_prepare(*this);
     accel = std::make_shared<Accel>(*this);
@@ -158,9 +170,11 @@ Vec2 sphere_uv(const Sphere& s, Vec3 n) {
     return Vec2{phi * (0.5f * kInvPi), theta * kInvPi};
 }
 
-const Bsdf& resolve_textured_bsdf(const Scene& scene, const Bsdf& b, Vec2 uv, Bsdf* scratch) {
-    *scratch = b;
-    Bsdf& r = *scratch;
+namespace {
+// b's textured parameters evaluated at uv into *out (a copy of b).
+void resolve_params(const Scene& scene, const Bsdf& b, Vec2 uv, Bsdf* out) {
+    *out = b;
+    Bsdf& r = *out;
     const std::vector<Texture>& t = scene.textures;
     if (b.tex_diffuse >= 0) r.diffuse = texture_eval(t[size_t(b.tex_diffuse)], uv);
     if (b.tex_specular >= 0) r.specular = texture_eval(t[size_t(b.tex_specular)], uv);
@@ -173,7 +187,26 @@ const Bsdf& resolve_textured_bsdf(const Scene& scene, const Bsdf& b, Vec2 uv, Bs
     };
     if (b.tex_alpha_u >= 0) r.alpha_u = alpha(b.tex_alpha_u);
     if (b.tex_alpha_v >= 0) r.alpha_v = alpha(b.tex_alpha_v);
+    // blendbsdf's weight: the texture's mean, clamped to [0, 1] as Mitsuba does at every lookup.
+    if (b.tex_blend >= 0) {
+        const RGB t_w = texture_eval(t[size_t(b.tex_blend)], uv);
+        const float w = std::clamp((t_w.r + t_w.g + t_w.b) * (1.0f / 3.0f), 0.0f, 1.0f);
+        r.part_weight[0] = 1 - w;
+        r.part_weight[1] = w;
+    }
     bsdf_refresh_weights(r);
+}
+}  // namespace
+
+const Bsdf& resolve_textured_bsdf(const Scene& scene, const Bsdf& b, Vec2 uv, BsdfScratch* scratch) {
+    Bsdf& r = scratch->bsdf;
+    resolve_params(scene, b, uv, &r);
+    if (b.type == BsdfType::Mixture)
+        for (int i = 0; i < b.part_count; ++i)
+            if (b.part[i]->textured_params) {
+                resolve_params(scene, *b.part[i], uv, &scratch->parts[i]);
+                r.part[i] = &scratch->parts[i];
+            }
     return r;
 }
 

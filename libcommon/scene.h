@@ -161,8 +161,15 @@ Vec2 sphere_uv(const Sphere& s, Vec3 n);
 // textured one is copied into *scratch, its textures looked up and its reflectance-dependent sampling
 // weight refreshed (bsdf_refresh_weights), and *scratch is returned. Every BSDF query at one vertex
 // (eval, pdf, sample, guiding shares) must use the same returned BSDF.
-const Bsdf& resolve_textured_bsdf(const Scene& scene, const Bsdf& b, Vec2 uv, Bsdf* scratch);
-inline const Bsdf& scene_bsdf_at(const Scene& scene, const SurfaceHit& hit, Bsdf* scratch) {
+// A Mixture's textured parts are resolved into scratch->parts and the copy's part[] points there (so a
+// BsdfScratch must not be copied while the returned BSDF is in use); the loader refuses a textured
+// Mixture inside a Mixture, so one level of parts suffices.
+struct BsdfScratch {
+    Bsdf bsdf;
+    Bsdf parts[kMaxBsdfParts];
+};
+const Bsdf& resolve_textured_bsdf(const Scene& scene, const Bsdf& b, Vec2 uv, BsdfScratch* scratch);
+inline const Bsdf& scene_bsdf_at(const Scene& scene, const SurfaceHit& hit, BsdfScratch* scratch) {
     const Bsdf& b = scene.bsdfs[hit.bsdf];
     if (!b.textured_params) return b;
     return resolve_textured_bsdf(scene, b, hit.uv, scratch);

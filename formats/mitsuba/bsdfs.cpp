@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 #include "formats/mitsuba/builder.h"
 
@@ -121,6 +122,16 @@ Microfacet distribution(SceneBuilder& b, Plugin& p) {
 const char* mitsuba_ignores_it(const std::string&) { return "Mitsuba 0.5 ignores it too (unqueried attribute)"; }
 const char* sampling_only(const std::string&) { return "a sampling strategy only; it does not change the result"; }
 
+// Whether some lobe of b passes light through (a Mixture: some part's, looked up in scene.bsdfs).
+bool transmits_light(const SceneBuilder& sb, const Bsdf& b) {
+    if (b.type == BsdfType::Mixture) {
+        for (int i = 0; i < b.part_count; ++i)
+            if (transmits_light(sb, sb.scene.bsdfs[b.part_index[i]])) return true;
+        return false;
+    }
+    return b.type == BsdfType::Dielectric || b.type == BsdfType::ThinDielectric || b.type == BsdfType::RoughDielectric;
+}
+
 // ---- the plugins ------------------------------------------------------------------------------
 
 // Wraps one BSDF and makes it act alike on both sides.
@@ -144,7 +155,7 @@ void twosided(BsdfArgs& a) {
     }
     // As in Mitsuba: the wrapper mirrors the front side onto the back, which means nothing for
     // a surface that lets light through (its back side is the other medium's view of it).
-    if (b.type == BsdfType::Dielectric || b.type == BsdfType::ThinDielectric || b.type == BsdfType::RoughDielectric)
+    if (transmits_light(sb, b))
         fail(src, p.line, "twosided cannot wrap a BSDF that transmits light (dielectric, thindielectric, roughdielectric)");
     b.two_sided = true;
 }
@@ -387,6 +398,177 @@ void ward(BsdfArgs& a) {
     b.specular = spectrum_param(a, "specularReflectance", RGB(0.2f), &b.tex_specular);
 }
 
+// The largest value per channel a parameter can take: the constant, or its texture's largest texel
+// (Mitsuba's Texture::getMaximum).
+RGB param_maximum(const SceneBuilder& sb, RGB value, int16_t tex) {
+    if (tex < 0) return value;
+    const Texture& t = sb.scene.textures[size_t(tex)];
+    auto cmax = [](RGB x, RGB y) { return RGB(std::max(x.r, y.r), std::max(x.g, y.g), std::max(x.b, y.b)); };
+    if (t.type == TextureType::Checkerboard) return cmax(t.color0, t.color1);
+    RGB m(0.0f);
+    for (const RGB& v : t.texels) m = cmax(m, v);
+    return m;
+}
+// The parameter times k: the constant scaled, or a texture scaled as Mitsuba's `scale` texture would
+// (the same key as textures.cpp's scale, so equal ones are shared).
+void scale_param(SceneBuilder& sb, RGB* value, int16_t* tex, float k) {
+    if (*tex < 0) {
+        *value = *value * k;
+        return;
+    }
+    Texture t = sb.scene.textures[size_t(*tex)];
+    for (RGB& v : t.texels) v = v * k;
+    t.color0 = t.color0 * k;
+    t.color1 = t.color1 * k;
+    char key[96];
+    std::snprintf(key, sizeof key, "scale|%d|%a|%a|%a", int(*tex), k, k, k);
+    *tex = sb.add_texture(std::move(t), key);
+}
+
+// Mitsuba 0.5's modified Phong (libcommon/bsdf_phong.cpp). As Mitsuba's BSDF::ensureEnergyConservation
+// (on by default): where diffuse and specular reflectance (their largest texels, if textured) sum to more
+// than 1 in some channel, both are scaled by 0.99 / that sum, with a warning.
+void phong(BsdfArgs& a) {
+    Bsdf& b = a.bsdf;
+    b.type = BsdfType::Phong;
+    b.diffuse = spectrum_param(a, "diffuseReflectance", RGB(0.5f), &b.tex_diffuse);
+    b.specular = spectrum_param(a, "specularReflectance", RGB(0.2f), &b.tex_specular);
+    if (auto it = a.tex.find("exponent"); it != a.tex.end()) {
+        it->second.used = true;
+        b.tex_alpha_u = b.tex_alpha_v = it->second.index;  // (Bsdf::alpha_u holds the exponent)
+        b.alpha_u = b.alpha_v = 30.0f;
+    } else {
+        b.alpha_u = b.alpha_v = a.b.get_float(a.p, "exponent", 30.0f);
+        // Mitsuba takes any number; a negative exponent makes the lobe's normalisation (n + 1) negative
+        // or its peak infinite, so iris refuses it.
+        if (!(b.alpha_u >= 0) || !std::isfinite(b.alpha_u))
+            fail(*a.p.src, a.b.find(a.p, "exponent")->line, "phong: exponent must be finite and non-negative");
+    }
+    if (a.b.get_bool(a.p, "ensureEnergyConservation", true)) {
+        const RGB sum = param_maximum(a.b, b.diffuse, b.tex_diffuse) + param_maximum(a.b, b.specular, b.tex_specular);
+        const float peak = std::max({sum.r, sum.g, sum.b});
+        if (peak > 1) {
+            const float k = 0.99f / peak;
+            char msg[200];
+            std::snprintf(msg, sizeof msg, "phong: diffuseReflectance + specularReflectance reach %.4g; both scaled by %.4g "
+                          "to conserve energy, as Mitsuba does (ensureEnergyConservation=false keeps them)", peak, k);
+            a.b.warn(*a.p.src, a.p.line, msg);
+            scale_param(a.b, &b.diffuse, &b.tex_diffuse, k);
+            scale_param(a.b, &b.specular, &b.tex_specular, k);
+        }
+    }
+}
+
+// The nested <bsdf>s and <ref>s of mixturebsdf/blendbsdf, each added to scene.bsdfs as a part of a.bsdf
+// (Bsdf::part_index; Scene::finalize links them). Other nested elements are refused, except a
+// <texture>/<ref> named `texture_name` (blendbsdf's weight), whose index goes to *tex.
+void read_parts(BsdfArgs& a, const char* texture_name, int16_t* tex) {
+    SceneBuilder& sb = a.b;
+    const Plugin& p = a.p;
+    const Source& src = *p.src;
+    Bsdf& b = a.bsdf;
+    for (pugi::xml_node c : p.children) {
+        const std::string tag = c.name();
+        const int line = src.line_of(c);
+        const std::string name = c.attribute("name").value();
+        if (texture_name && name == texture_name && (tag == "texture" || (tag == "ref" && sb.named_textures.count(c.attribute("id").value())))) {
+            if (*tex >= 0) fail(src, line, "parameter " + quote(name) + " given twice");
+            *tex = tag == "texture" ? sb.parse_texture(src, c, "texture for parameter " + quote(name) + " of " + p.what())
+                                    : sb.texture_ref(src, c);
+            continue;
+        }
+        Bsdf part;
+        if (tag == "bsdf") {
+            std::string nested_id;
+            part = sb.parse_bsdf(src, c, &nested_id);
+            if (!nested_id.empty()) sb.named_bsdfs[nested_id].used = true;  // used through the mixture
+        } else if (tag == "ref") {
+            part = sb.named_bsdf(src, c).bsdf;
+        } else {
+            fail(src, line, "<" + tag + "> is not allowed inside " + p.what());
+        }
+        if (b.part_count == kMaxBsdfParts)
+            fail(src, line, p.what() + ": iris mixes at most " + std::to_string(kMaxBsdfParts) + " BSDFs");
+        // Scene::intersect bumps the hit's frame once, for the BSDF the shape carries.
+        if (part.tex_bump >= 0)
+            fail(src, line, "a bumpmap inside " + p.what() + " is not supported: put the bumpmap around it");
+        // Embree's filter reads the opacity of the BSDF the shape carries.
+        if (bsdf_is_masked(part)) fail(src, line, "a mask inside " + p.what() + " is not supported: put the mask around it");
+        // BsdfScratch resolves one level of textured parts per hit.
+        if (part.type == BsdfType::Mixture && bsdf_has_textured_params(part))
+            fail(src, line, "a textured mixturebsdf/blendbsdf inside " + p.what() + " is not supported");
+        b.parts_textured = b.parts_textured || bsdf_has_textured_params(part);
+        b.part_index[b.part_count++] = sb.add_bsdf(part);
+    }
+}
+
+// Mitsuba's mixturebsdf: `weights` ("w0, w1, ...", separated by spaces, commas or semicolons), one per
+// nested BSDF in document order. As in Mitsuba: a weight that does not parse or is negative, a count
+// that differs from the BSDFs', or weights that sum to 0 are errors; with ensureEnergyConservation
+// (default true) weights summing to more than 1 are divided by their sum, with a warning.
+void mixturebsdf(BsdfArgs& a) {
+    Bsdf& b = a.bsdf;
+    const Source& src = *a.p.src;
+    b.type = BsdfType::Mixture;
+    const std::optional<std::string> text = a.b.get_string(a.p, "weights");
+    const int wline = text ? a.b.find(a.p, "weights")->line : a.p.line;
+    std::vector<float> weights;
+    std::string token;
+    for (size_t i = 0; text && i <= text->size(); ++i) {
+        const char ch = i < text->size() ? (*text)[i] : ' ';
+        if (ch != ' ' && ch != ',' && ch != ';' && ch != '\t' && ch != '\n') {
+            token += ch;
+            continue;
+        }
+        if (token.empty()) continue;
+        char* end = nullptr;
+        const double w = std::strtod(token.c_str(), &end);
+        if (*end != '\0' || !std::isfinite(w)) fail(src, wline, "mixturebsdf: weight " + quote(token) + " is not a number");
+        if (w < 0) fail(src, wline, "mixturebsdf: weight " + quote(token) + " is negative");
+        weights.push_back(float(w));
+        token.clear();
+    }
+    if (weights.empty()) fail(src, wline, "mixturebsdf needs weights (a string \"w0, w1, ...\", one per nested BSDF)");
+    const bool conserve = a.b.get_bool(a.p, "ensureEnergyConservation", true);
+    read_parts(a, nullptr, nullptr);
+    if (weights.size() != b.part_count)
+        fail(src, wline, "mixturebsdf: " + std::to_string(weights.size()) + " weights for " +
+                             std::to_string(b.part_count) + " nested BSDFs");
+    float sum = 0;
+    for (float w : weights) sum += w;
+    if (!(sum > 0)) fail(src, wline, "mixturebsdf: the weights must sum to more than 0");
+    if (conserve && sum > 1) {
+        a.b.warn(src, wline, "mixturebsdf: weights sum to " + std::to_string(sum) + " > 1 and are divided by it, "
+                             "as Mitsuba does (ensureEnergyConservation=false keeps them)");
+        for (float& w : weights) w /= sum;
+    }
+    std::copy(weights.begin(), weights.end(), b.part_weight);
+}
+
+// Mitsuba's blendbsdf: (1 - weight) times the first nested BSDF plus weight times the second; weight a
+// number or a texture (its mean over R, G, B), clamped to [0, 1] as Mitsuba does at every lookup.
+void blendbsdf(BsdfArgs& a) {
+    Bsdf& b = a.bsdf;
+    const Source& src = *a.p.src;
+    b.type = BsdfType::Mixture;
+    read_parts(a, "weight", &b.tex_blend);
+    if (b.part_count != 2) fail(src, a.p.line, "blendbsdf needs exactly two nested BSDFs, not " + std::to_string(b.part_count));
+    if (b.tex_blend >= 0 && a.b.find(a.p, "weight"))
+        fail(src, a.b.find(a.p, "weight")->line, "parameter \"weight\" given twice");
+    float w = 0.5f;  // (a textured weight replaces these per hit)
+    if (b.tex_blend < 0) {
+        w = a.b.get_float(a.p, "weight", 0.5f);
+        if (!std::isfinite(w)) fail(src, a.b.find(a.p, "weight")->line, "blendbsdf: weight must be a finite number");
+        if (w < 0 || w > 1) {
+            a.b.warn(src, a.b.find(a.p, "weight")->line, "blendbsdf: weight " + std::to_string(w) +
+                                                          " is clamped to [0, 1], as Mitsuba does");
+            w = std::clamp(w, 0.0f, 1.0f);
+        }
+    }
+    b.part_weight[0] = 1 - w;
+    b.part_weight[1] = w;
+}
+
 // The BSDF plugins. `wrapper`: the plugin reads its nested elements itself (a wrapped BSDF, a
 // bump texture); the others get their nested <texture>s and <ref>s as textured parameters.
 struct BsdfPlugin {
@@ -408,6 +590,9 @@ const BsdfPlugin kBsdfs[] = {
     {"plastic", plastic},
     {"roughplastic", plastic},
     {"ward", ward},
+    {"phong", phong},
+    {"mixturebsdf", mixturebsdf, true},
+    {"blendbsdf", blendbsdf, true},
 };
 
 void check_bsdf(const Plugin& p, const Bsdf& b) {

@@ -202,6 +202,21 @@ protected:
                                                               "<bsdf type=\"diffuse\"/></bsdf>"));
         write_text(in("mask_emitter.xml"), scene_with(sphere + "\n    <bsdf type=\"mask\"><bsdf type=\"diffuse\"/></bsdf>"
                                                                "<emitter type=\"area\"><rgb name=\"radiance\" value=\"1, 1, 1\"/></emitter>"));
+        // mixturebsdf / blendbsdf / phong (formats/mitsuba/bsdfs.cpp): what Mitsuba 0.5 rejects, and phong's
+        // negative exponent (Mitsuba takes it and computes garbage).
+        auto mixture = [&](const std::string& weights, int n) {
+            std::string body = "\n    <bsdf type=\"mixturebsdf\"><string name=\"weights\" value=\"" + weights + "\"/>";
+            for (int i = 0; i < n; ++i) body += "<bsdf type=\"diffuse\"/>";
+            return scene_with(sphere + body + "</bsdf>");
+        };
+        write_text(in("mixture_count.xml"), mixture("0.5, 0.5", 3));
+        write_text(in("mixture_negative.xml"), mixture("0.5, -0.5", 2));
+        write_text(in("mixture_word.xml"), mixture("0.5, half", 2));
+        write_text(in("mixture_zero.xml"), mixture("0, 0", 2));
+        write_text(in("mixture_no_weights.xml"), scene_with(sphere + "\n    <bsdf type=\"mixturebsdf\"><bsdf type=\"diffuse\"/></bsdf>"));
+        write_text(in("blend_one.xml"), scene_with(sphere + "\n    <bsdf type=\"blendbsdf\"><float name=\"weight\" value=\"0.3\"/>"
+                                                            "<bsdf type=\"diffuse\"/></bsdf>"));
+        write_text(in("phong_exponent.xml"), scene_with(sphere + "\n    <bsdf type=\"phong\"><float name=\"exponent\" value=\"-2\"/></bsdf>"));
         auto textured = [&](const std::string& file) {
             return scene_with(sphere + "\n    <bsdf type=\"diffuse\"><texture type=\"bitmap\" name=\"reflectance\">"
                                        "<string name=\"filename\" value=\"" + file + "\"/></texture></bsdf>");
@@ -352,6 +367,13 @@ const BadInputCase kCases[] = {
     {"SceneMaskColoured", "render", "mask with a coloured opacity", "{in}/mask_colour.xml -o {out}", "a coloured opacity is not supported"},
     {"SceneMaskEmitter", "render", "area emitter on a masked shape", "{in}/mask_emitter.xml -o {out}", "an area emitter on a shape whose bsdf is a mask"},
     {"TracePhotonsMaskWithoutBsdf", "trace-photons", "mask without its nested BSDF", "{in}/mask.xml -o {out}", "mask needs a nested <bsdf> or <ref>"},
+    {"SceneMixtureWeightCount", "render", "mixturebsdf with 2 weights for 3 BSDFs", "{in}/mixture_count.xml -o {out}", "2 weights for 3 nested BSDFs"},
+    {"SceneMixtureNegativeWeight", "render", "mixturebsdf with a negative weight", "{in}/mixture_negative.xml -o {out}", "weight \"-0.5\" is negative"},
+    {"SceneMixtureWeightWord", "render", "mixturebsdf weight that is not a number", "{in}/mixture_word.xml -o {out}", "weight \"half\" is not a number"},
+    {"SceneMixtureZeroWeights", "render", "mixturebsdf weights summing to 0", "{in}/mixture_zero.xml -o {out}", "weights must sum to more than 0"},
+    {"SceneMixtureNoWeights", "render", "mixturebsdf without weights", "{in}/mixture_no_weights.xml -o {out}", "mixturebsdf needs weights"},
+    {"SceneBlendOneBsdf", "render", "blendbsdf with one nested BSDF", "{in}/blend_one.xml -o {out}", "blendbsdf needs exactly two nested BSDFs"},
+    {"ScenePhongNegativeExponent", "render", "phong with a negative exponent", "{in}/phong_exponent.xml -o {out}", "exponent must be finite and non-negative"},
     {"SceneTextureUnsupported", "render", "unsupported texture plugin (wireframe)", "{in}/texture_unsupported.xml -o {out}", "unsupported plugin \"wireframe\""},
     {"TextureMissing", "render", "bitmap texture file does not exist", "{in}/texture.xml -o {out}", "wood.png", "cannot read texture file"},
     {"TextureGarbage", "render", "bitmap texture file that is not an image", "{in}/texture_garbage.xml -o {out}", "not_a_png.png", "unrecognised image format"},

@@ -249,6 +249,26 @@ void expect_nee_modes_agree(const std::string& scene_file, const std::string& fl
 // The tiles cover about a quarter of the image.
 TEST(GuidingUnbiased, ModesKeepTheCoatOfLayeredBsdfs) { expect_nee_modes_agree("guiding/layered_tiles_box.xml", ""); }
 
+// The same on tiles of phong, a mixturebsdf (a silver mirror beside a white diffuse, weights 1, 1: the
+// mirror is a Dirac lobe the cache leaves alone, the diffuse part is replaced) and a blendbsdf with a
+// textured weight (a diffuse and a rough conductor, each guidable in proportion to its weight):
+// tests/data/guiding/mixture_tiles_box.xml. Every vertex guided, and the photons and caches see the
+// mixtures too (about 14 s on two cores). Checked to fail: the mixture's guidable share counting its mirror
+// part as replaceable (pixel |z| 15-17), and bsdf_sample's lobe choice ignoring the parts' shares, so
+// that uc >= 1 - share can pick the mirror (pixel |z| 9-10, block 13-22).
+TEST(GuidingUnbiased, PhongAndMixturesKeepTheImage) {
+    expect_nee_modes_agree("guiding/mixture_tiles_box.xml", "--set guide-vertices=0 --set rr-threshold=0.1");
+}
+// The same with caustic connections and the caustic light tracer, on the scene without its glass sphere
+// (tests/data/guiding/mixture_mirror_box.xml; through the glass, such per-pixel tests are heavy-tailed:
+// with the sphere, the largest pixel |z| wandered between pixels and did not grow with 4x the samples):
+// light the mixture's mirror part reflects onto the walls is a caustic both techniques make (the mirror
+// part continues light paths, the diffuse part ends them and receives connections).
+TEST(GuidingUnbiased, MixtureMirrorCausticsKeepTheImage) {
+    expect_nee_modes_agree("guiding/mixture_mirror_box.xml",
+                           "--set connect=on --set caustics=on --set guide-vertices=0 --set rr-threshold=0.1");
+}
+
 // The same on glossy metal tiles (a rough conductor, a Ward without a diffuse part), where the cache
 // technique samples the map's product with the glossy lobe (render --set product=on, Guide::product): its
 // density p = d_k e_K / Z must be the one its samples come from, with MIS against NEE and the BSDF, and

@@ -5,6 +5,8 @@
 // in tests/statistical/test_bsdf_chi2.cpp.
 #include <gtest/gtest.h>
 
+#include <tuple>
+
 #include <cmath>
 #include <string>
 #include <vector>
@@ -141,6 +143,17 @@ std::vector<Case> nondelta_cases() {
         c.push_back({n + "_aniso", ward(v, 0.08f, 0.4f, RGB(0.2f), col)});
     }
     c.push_back({"ward_seed_lamp", ward(WardVariant::Balanced, 0.4f, 0.4f, RGB(0), {0.616f, 0.4752f, 0.352f})});
+    // Mitsuba 0.5's phong (exponent in alpha_u): living_room's dark metal and a broad lobe, and one
+    // without a diffuse part (then one lobe, wholly guidable).
+    for (auto [n, kd, ks] : {std::tuple{615.486f, RGB(0.01f), RGB(0.149f, 0.086f, 0.063f)}, {10.87f, RGB(0.3f), RGB(0.6f)},
+                             {30.0f, RGB(0.0f), RGB(0.5f)}}) {
+        Bsdf b;
+        b.type = BsdfType::Phong;
+        b.diffuse = kd;
+        b.specular = ks;
+        b.alpha_u = b.alpha_v = n;
+        c.push_back({"phong_n" + std::to_string(int(n)) + (is_black(kd) ? "_nodiffuse" : ""), prepared(b)});
+    }
     return c;
 }
 
@@ -215,7 +228,7 @@ TEST(BsdfGuidable, ShareAndDensityMatchTheLobeChoiceOfSample) {
     for (const Case& c : nondelta_cases()) {
         SCOPED_TRACE(c.name);
         const bool layered = c.b.type == BsdfType::Plastic || c.b.type == BsdfType::RoughPlastic ||
-                             (c.b.type == BsdfType::Ward && !is_black(c.b.diffuse));
+                             ((c.b.type == BsdfType::Ward || c.b.type == BsdfType::Phong) && !is_black(c.b.diffuse));
         for (Vec3 wi : incident_dirs()) {
             const float g = bsdf_guidable_share(c.b, wi);
             ASSERT_GT(g, 0.0f);

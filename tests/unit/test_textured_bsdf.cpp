@@ -146,9 +146,9 @@ TEST(TexturedBsdf, NestedAndReferencedTexturesParseAndShare) {
     SurfaceHit hit;
     hit.bsdf = s.meshes[3].bsdf;
     hit.uv = Vec2{0.1f, 0.1f};  // checkerboard cell (0, 0): color0; bitmap texel (0, 0)
-    Bsdf scratch;
+    BsdfScratch scratch;
     const Bsdf& r = scene_bsdf_at(s, hit, &scratch);
-    EXPECT_EQ(&r, &scratch);
+    EXPECT_EQ(&r, &scratch.bsdf);
     EXPECT_FLOAT_EQ(r.alpha_u, 0.3f);
     hit.uv = Vec2{0.6f, 0.1f};  // cell (1, 0): color1, mean 0.2
     EXPECT_NEAR(scene_bsdf_at(s, hit, &scratch).alpha_v, 0.2f, 1e-6f);
@@ -167,7 +167,7 @@ TEST(TexturedBsdf, UntexturedBsdfIsReturnedByReference) {
     Scene s = load_quiet(d.write("s.xml", scene_text("  <shape type=\"rectangle\"/>\n  <emitter type=\"constant\"/>\n")));
     SurfaceHit hit;
     hit.bsdf = s.meshes[0].bsdf;
-    Bsdf scratch;
+    BsdfScratch scratch;
     EXPECT_FALSE(s.bsdfs[hit.bsdf].textured);
     EXPECT_EQ(&scene_bsdf_at(s, hit, &scratch), &s.bsdfs[hit.bsdf]);
 }

@@ -201,7 +201,7 @@ int cache_for_pixel(const Scene& scene, const CacheAtlas& a, int x, int y, int w
     Ray ray = camera_ray(camera, x + 0.5f, y + 0.5f, width, height);
     for (int bounce = 0; bounce < 16; ++bounce) {
         SurfaceHit hit;
-        Bsdf scratch;
+        BsdfScratch scratch;
         if (!scene.intersect(ray, &hit)) {
             *why = "the pixel's ray leaves the scene";
             return -1;

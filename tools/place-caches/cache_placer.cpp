@@ -34,7 +34,7 @@ void walk_camera_path(const Scene& scene, const Camera& cam, float fx, float fy,
                       int max_vertices, int roulette_from, Rng& rng, Visit&& visit) {
     Ray ray = camera_ray(cam, fx, fy, w, h);
     SurfaceHit hit;
-    Bsdf scratch;
+    BsdfScratch scratch;
     RGB throughput{1, 1, 1};
     int vertices = 0;
     for (int bounce = 0; bounce <= max_bounces; ++bounce) {

@@ -95,7 +95,7 @@ bool CausticTracer::trace(uint64_t seed, uint64_t index, std::vector<CausticSpla
     ray.o = env ? e.p : offset_ray_origin(e.p, e.n, e.d, scene_.scale());
     ray.d = e.d;
     SurfaceHit hit;
-    Bsdf bsdf_at_hit;  // textured BSDFs evaluated at the current vertex (scene_bsdf_at)
+    BsdfScratch bsdf_at_hit;  // textured BSDFs evaluated at the current vertex (scene_bsdf_at)
     bool bad = false;
     // depth = edges from the light to the current vertex; a splat there makes a path of depth + 1 edges.
     for (int depth = 1; max_depth_ < 0 || depth + 1 <= max_depth_; ++depth) {

@@ -28,6 +28,13 @@ inline bool guidable(const Bsdf& b) {
         case BsdfType::RoughPlastic: return true;
         case BsdfType::RoughConductor: return std::min(b.alpha_u, b.alpha_v) >= 0.2f;
         case BsdfType::Ward: return !is_black(b.diffuse) || std::min(b.alpha_u, b.alpha_v) >= 0.2f;
+        // Phong's exponent n is as wide as Beckmann alpha = sqrt(2 / (n + 2)) (Mitsuba's getRoughness):
+        // alpha >= 0.2 <=> n <= 48.
+        case BsdfType::Phong: return !is_black(b.diffuse) || b.alpha_u <= 48.0f;
+        case BsdfType::Mixture:  // where some part may be guided (the others keep their own sampling)
+            for (int i = 0; i < b.part_count; ++i)
+                if (b.part_weight[i] > 0 && guidable(*b.part[i])) return true;
+            return false;
         default: return false;
     }
 }
@@ -130,7 +137,7 @@ struct Walk {
     Vec3 prev_p;
     float eta_scale = 1.0f;  // product of relative IORs^2 crossed, for Russian roulette (Mitsuba)
     SurfaceHit hit;
-    Bsdf bsdf_at_hit;        // textured BSDFs evaluated at the current vertex (scene_bsdf_at)
+    BsdfScratch bsdf_at_hit;        // textured BSDFs evaluated at the current vertex (scene_bsdf_at)
     int guided_vertices = 0; // vertices at which a cache was looked up so far
     bool caustic_chain = false;  // so far: a non-Dirac event at the first vertex, Dirac ones after it
     LastJoinable last_y;
@@ -353,7 +360,7 @@ void Walk::connect(const Vertex& x) {
           consistent_side(w, hit.ng, wo_x.z) && cos_y_x * cos_y_chain > 0))
         return;
     const RGB f_x = bsdf_eval(*x.bsdf, x.wi, wo_x);
-    Bsdf bsdf_y_at;
+    BsdfScratch bsdf_y_at;
     const Bsdf& bsdf_y = scene_bsdf_at(scene, v.hit, &bsdf_y_at);
     const Vec3 wi_y = v.hit.frame.to_local(-w), wo_y = v.hit.frame.to_local(v.w_light);
     const RGB f_y = wi_y.z != 0 ? bsdf_eval(bsdf_y, wi_y, wo_y) : RGB(0.0f);

@@ -44,7 +44,7 @@ void trace_one(const Scene& scene, const PhotonOptions& o, uint64_t index, std::
     // The emitter's geometry is at most the scene's scale: the rounding of e.p is relative to that.
     ray.o = (e.n.x == 0 && e.n.y == 0 && e.n.z == 0) ? e.p : offset_ray_origin(e.p, e.n, e.d, scene.scale());
     SurfaceHit hit;
-    Bsdf bsdf_at_hit;  // textured BSDFs evaluated at the current vertex (scene_bsdf_at)
+    BsdfScratch bsdf_at_hit;  // textured BSDFs evaluated at the current vertex (scene_bsdf_at)
     bool after_delta = false;  // some bounce so far was specular
     for (int depth = 1; o.max_depth < 0 || depth <= o.max_depth; ++depth) {
         if (!scene.intersect(ray, &hit)) return;
