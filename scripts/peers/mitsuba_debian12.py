@@ -10,7 +10,9 @@ the file, instead of building something else.  Running it twice is harmless:
 an edit whose result is already present is skipped.
 
 The edits change how the program is built, never what it computes, except
---spectrum-fix (see SPECTRUM_FIX below), which is off unless asked for.
+two: the independent sampler reads an optional `seed` (see sampler_seed; a
+scene without one renders as before), and --spectrum-fix (see SPECTRUM_OLD
+below), which is off unless asked for.
 """
 import os
 import re
@@ -123,7 +125,22 @@ def sources(root):
     replace(root, "src/volume/volcache.cpp", "this, _1)", "this, boost::placeholders::_1)", count=2)
 
 
-# --- 4. Optional: tabulated spectra interpolated forwards ------------------------
+# --- 4. The independent sampler takes a seed ----------------------------------
+# Mitsuba 0.5's independent sampler seeds its generator with one fixed seed,
+# and each render thread's clone is seeded from it, so two renders of one
+# scene repeat the same random numbers (only the thread scheduling differs):
+# they cannot measure a reference's own noise.  An optional integer `seed`
+# (absent: the fixed seed, exactly as before) gives independent renders.
+def sampler_seed(root):
+    replace(root, "src/samplers/independent.cpp",
+            "\t\tm_random = new Random();\n\t}",
+            "\t\t/* iris's build: an optional seed, so that renders can be independent */\n"
+            "\t\tif (props.hasProperty(\"seed\"))\n"
+            "\t\t\tm_random = new Random((uint64_t) props.getLong(\"seed\"));\n"
+            "\t\telse\n\t\t\tm_random = new Random();\n\t}", count=1)
+
+
+# --- 5. Optional: tabulated spectra interpolated forwards ------------------------
 # Mitsuba 0.5.0's InterpolatedSpectrum::eval evaluates lerp(t, fb, fa) with
 # t = (lambda - a) / (b - a): at lambda = a it returns the value tabulated at b,
 # i.e. each segment is interpolated backwards.  The 0.6 core evaluates
@@ -155,6 +172,7 @@ def main(argv):
     scons_python3(root)
     config_py(root)
     sources(root)
+    sampler_seed(root)
     spectrum(root, "--spectrum-fix" in flags)
 
 
