@@ -12,6 +12,10 @@
 #          segment, as the Mitsuba 0.6 core (and iris's default) does; without it Mitsuba 0.5.0's
 #          backwards interpolation is kept (the authors' images)
 #   --jobs N  compiler jobs (default 2)
+#   --check-only  build only what the published-scene check needs (the mitsuba binary, its libraries,
+#          the `path` integrator and every shape, BSDF, texture, emitter, sensor, film, filter and
+#          sampler plugin): about 60 % of the files; run again without it to build the rest
+#          (guided_path, the other integrators, media...)
 # Prints the dist folder (mitsuba binary, libraries, plugins) on its last line.
 # Packages (Debian 12): scons build-essential libboost-{system,filesystem,thread}-dev
 # libxerces-c-dev libeigen3-dev libopenexr-dev libpng-dev libjpeg-dev zlib1g-dev libfftw3-dev
@@ -21,11 +25,12 @@
 set -euo pipefail
 prog=build-mitsuba
 here=$(cd "$(dirname "$0")" && pwd)
-fix=""; jobs=2; args=()
+fix=""; jobs=2; check_only=""; args=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --spectrum-fix) fix=--spectrum-fix ;;
     --jobs) shift; jobs=${1:?}; ;;
+    --check-only) check_only=1 ;;
     -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
     -*) echo "$prog: error: unknown option $1" >&2; exit 2 ;;
     *) args+=("$1") ;;
@@ -46,8 +51,18 @@ if [ ! -f "$tree/SConstruct" ]; then
   cp -a "$src/mitsuba" "$tree"
 fi
 python3 "$here/mitsuba_debian12.py" "$tree" $fix
-echo "$prog: scons -j$jobs in $tree (log: $build/scons.log)" >&2
-if ! (cd "$tree" && nice -n 19 scons -j"$jobs" > "$build/scons.log" 2>&1); then
+targets=()
+if [ -n "$check_only" ]; then
+  targets=(dist/mitsuba dist/libmitsuba-core.so dist/libmitsuba-render.so dist/libmitsuba-hw.so dist/data
+           dist/plugins/path.so)
+  for kind in bsdfs shapes textures emitters sensors films rfilters samplers; do
+    for name in $(grep -o "SharedLibrary('[A-Za-z_0-9]*'" "$tree/src/$kind/SConscript" | sed "s/^SharedLibrary('//; s/'\$//"); do
+      targets+=("dist/plugins/$name.so")
+    done
+  done
+fi
+echo "$prog: scons -j$jobs ${check_only:+(${#targets[@]} targets for the check) }in $tree (log: $build/scons.log)" >&2
+if ! (cd "$tree" && nice -n 19 scons -j"$jobs" "${targets[@]}" > "$build/scons.log" 2>&1); then
   echo "$prog: error: scons failed; last lines of $build/scons.log:" >&2
   tail -n 20 "$build/scons.log" >&2
   exit 1
