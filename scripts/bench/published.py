@@ -33,8 +33,10 @@ BEGIN, END = "<!-- published:begin (written by python3 -m scripts.bench publishe
 
 
 def add_options(s):
-    s.add_argument("--scenes", required=True, help="folder of published scenes: every *.available.xml under it "
-                   "(the fetch script's files, absent meshes commented out) but simple.* and *-improved.*")
+    s.add_argument("--scenes", required=True, help="folder of published scenes: every file ending in --suffix "
+                   "under it but simple.* and *-improved.* (the same scenes with another integrator)")
+    s.add_argument("--suffix", default=".available.xml", help="scene files' ending (default .available.xml: "
+                   "copies whose shapes with absent files are commented out; .xml for complete checkouts)")
     s.add_argument("--mitsuba", required=True, help="dist folder of scripts/peers/build-mitsuba.sh (holds mitsuba)")
     s.add_argument("--names", default="", help="comma-separated scene names (the file's stem, or its folder "
                    "where the file is scene.available.xml); default every scene found")
@@ -61,22 +63,22 @@ def log(msg):
 
 # ---- scenes ------------------------------------------------------------------------------------------
 
-def scene_name(path):
-    stem = os.path.basename(path)[:-len(".available.xml")]
+def scene_name(path, suffix=".available.xml"):
+    stem = os.path.basename(path)[:-len(suffix)]
     return os.path.basename(os.path.dirname(path)) if stem == "scene" else stem
 
 
-def find_scenes(folder, names, skip):
+def find_scenes(folder, names, skip, suffix):
     found = {}
-    for p in sorted(glob.glob(os.path.join(folder, "**", "*.available.xml"), recursive=True)):
+    for p in sorted(glob.glob(os.path.join(folder, "**", "*" + suffix), recursive=True)):
         base = os.path.basename(p)
-        if base.startswith("simple.") or "-improved." in base:
+        if base.startswith("simple.") or "-improved." in base or (suffix == ".xml" and ".available." in base):
             continue
-        found.setdefault(scene_name(p), p)
+        found.setdefault(scene_name(p, suffix), p)
     if names:
         missing = [n for n in names if n not in found]
         if missing:
-            sys.exit("bench published: error: no *.available.xml for %s under %s" % (", ".join(missing), folder))
+            sys.exit("bench published: error: no *%s for %s under %s" % (suffix, ", ".join(missing), folder))
         found = {n: found[n] for n in names}
     return {n: p for n, p in found.items() if n not in skip}
 
@@ -347,7 +349,7 @@ def cmd_published(a):
     cache = os.path.join(a.cache, bid)
     if not a.references_only and not os.path.exists(tools.BIN + "/render"):
         sys.exit("bench published: error: %s/render not found (build iris, or set IRIS_BIN)" % tools.BIN)
-    scenes = find_scenes(a.scenes, names, skip)
+    scenes = find_scenes(a.scenes, names, skip, a.suffix)
     log("%d scenes: %s; Mitsuba build %s, references cached in %s" % (len(scenes), ", ".join(scenes), bid, cache))
     results = {}
     for name, scene in scenes.items():
