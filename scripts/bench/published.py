@@ -22,7 +22,7 @@ import json
 import math
 import os
 import re
-import shutil
+import resource
 import subprocess
 import sys
 import time
@@ -45,8 +45,8 @@ def add_options(s):
     s.add_argument("--budgets", default="10,40", help="iris render budgets in seconds (two or more)")
     s.add_argument("--target-se", type=float, default=0.003, help="wanted relative standard error of each "
                    "channel mean of the reference")
-    s.add_argument("--ref-seconds", type=float, default=150, help="cap on one scene's two reference renders, "
-                   "from a pilot's time per sample")
+    s.add_argument("--ref-seconds", type=float, default=150, help="cap on one scene's two reference renders "
+                   "in machine seconds (processor seconds / threads), from a pilot's cost per sample")
     s.add_argument("--min-spp", type=int, default=16)
     s.add_argument("--pilot-spp", type=int, default=4)
     s.add_argument("--threads", type=int, default=2)
@@ -137,16 +137,18 @@ def mitsuba_render(dist, scene, text, spp, seed, size, out_dir, tag, threads):
            "-o", os.path.abspath(exr), os.path.abspath(base + ".xml")]
     env = dict(os.environ, LD_LIBRARY_PATH=dist)
     load0 = measure.load_now()
-    t0 = time.monotonic()
-    p = subprocess.run(["nice", "-n", "19"] + cmd, capture_output=True, text=True, env=env, cwd=out_dir)
-    wall = time.monotonic() - t0
+    t0, ru0 = time.monotonic(), resource.getrusage(resource.RUSAGE_CHILDREN)
+    p = subprocess.run(["nice", "-n", "10"] + cmd, capture_output=True, text=True, env=env, cwd=out_dir)
+    wall, ru1 = time.monotonic() - t0, resource.getrusage(resource.RUSAGE_CHILDREN)
+    # processor seconds of the whole process (load, render, write): what the render cost the shared machine
+    cpu = (ru1.ru_utime - ru0.ru_utime) + (ru1.ru_stime - ru0.ru_stime)
     logtext = p.stdout + p.stderr
     if p.returncode != 0 or not os.path.exists(exr):
         errors = [l for l in logtext.splitlines() if re.search(r"\bERROR\b|Error|error", l)]
         raise RuntimeError("Mitsuba failed (%d): %s" % (p.returncode, (errors or logtext.splitlines()[-3:] or ["?"])[-1]))
     warnings = sorted({re.sub(r"^.*?WARN\s+\S+\s+", "", l).strip() for l in logtext.splitlines() if " WARN " in l})
-    rec = dict(key, wall=wall, render_seconds=render_seconds(logtext), warnings=warnings, load_start=load0,
-               load_end=measure.load_now(), command="LD_LIBRARY_PATH=%s nice -n 19 %s" % (dist, " ".join(cmd)))
+    rec = dict(key, wall=wall, cpu=cpu, render_seconds=render_seconds(logtext), warnings=warnings, load_start=load0,
+               load_end=measure.load_now(), command="LD_LIBRARY_PATH=%s nice -n 10 %s" % (dist, " ".join(cmd)))
     measure.write_text(man, json.dumps(rec, indent=1))
     return rec
 
@@ -190,7 +192,9 @@ def reference(a, name, scene, text, size, dist, cache):
     ib = exr.rgb(os.path.join(out, "pilot-%dx%d-%dspp-seed2.exr" % (*size, a.pilot_spp)))
     means, _ = channel_stats((ia + ib) / 2)
     rse = rel_se_max(means, se_from_pair(ia, ib))  # one pilot render's
-    per_spp = max(1e-3, min(x["render_seconds"] or x["wall"] for x in (pa, pb)) / a.pilot_spp)
+    # machine seconds per spp: processor seconds over the threads (the wall time of an idle machine); the
+    # scene load is in it, so long references cost a little less per spp than this
+    per_spp = max(1e-3, min(x["cpu"] / a.threads for x in (pa, pb)) / a.pilot_spp)
     # the reference = mean of two renders of N spp: its relative SE = rse * sqrt(pilot / N) / sqrt(2)
     want = math.ceil(a.pilot_spp * (rse / (a.target_se * math.sqrt(2))) ** 2) if math.isfinite(rse) else a.min_spp
     cap = int(a.ref_seconds / 2 / per_spp)
@@ -204,7 +208,8 @@ def reference(a, name, scene, text, size, dist, cache):
     se1 = se_from_pair(ra, rb)
     rec = dict(spp=spp, wanted=want, means=means, se=[s / math.sqrt(2) for s in se1], se_single=se1,
                relmse_seeds=relmse(ra, rb), nonfinite=int((~ok).sum()),
-               seconds=[x["render_seconds"] or x["wall"] for x in recs], warnings=recs[0]["warnings"],
+               seconds=[x["render_seconds"] or x["wall"] for x in recs], cpu=[x["cpu"] for x in recs],
+               warnings=recs[0]["warnings"],
                loads=[x["load_start"] for x in recs] + [x["load_end"] for x in recs],
                files=[os.path.join(out, "ref-%dx%d-%dspp-seed%d.exr" % (*size, spp, s)) for s in (11, 12)])
     log("%s: reference %d spp, means %s, relative SE %s, relMSE between seeds %.3g"
@@ -279,7 +284,7 @@ def verdict(iris_means, ref_rec):
 
 
 def write_report(a, results, budgets, dist, bid, started):
-    head = ["scene", "size", "Mitsuba spp (wanted)", "Mitsuba R/G/B", "ref. SE R/G/B", "relMSE seeds",
+    head = ["scene", "size", "Mitsuba spp (wanted), machine s", "Mitsuba R/G/B", "ref. SE R/G/B", "relMSE seeds",
             "iris R/G/B (%gs)" % budgets[-1], "diff R", "diff G", "diff B"] + \
            ["relMSE %gs" % t for t in budgets] + ["ref. share", "relMSE x s"]
     rows, notes = [], []
@@ -290,7 +295,8 @@ def write_report(a, results, budgets, dist, bid, started):
             rows.append([name, size, "Mitsuba failed"] + [""] * (len(head) - 3))
             notes.append("- **%s**: Mitsuba: %s" % (name, r.get("ref_error")))
             continue
-        cells = [name, size, "%d (%d)" % (ref["spp"], ref["wanted"]), fmt3(ref["means"]),
+        cells = [name, size, "2 x %d (%d), %.0f s" % (ref["spp"], ref["wanted"], sum(ref["cpu"]) / a.threads),
+                 fmt3(ref["means"]),
                  fmt3([s / m if m else 0 for s, m in zip(ref["se"], ref["means"])], pct=True),
                  "%.3g" % ref["relmse_seeds"]]
         share = ref["relmse_seeds"] / 4
@@ -322,7 +328,8 @@ def write_report(a, results, budgets, dist, bid, started):
         when, a.threads, bid, dist, tools.BIN, load), "",
         "Command: `python3 -m scripts.bench %s`" % " ".join(sys.argv[1:]), ""]
     lines += measure.md_table(head, rows)
-    lines += ["", "diff = iris mean / Mitsuba mean - 1 at the longest budget; \"(ref. noise)\": 3 x the reference's "
+    lines += ["", "Mitsuba spp: two seeds of that many spp (the spp a 0.3 %% standard error wanted), machine s = their "
+              "processor seconds / %d threads. " % a.threads + "diff = iris mean / Mitsuba mean - 1 at the longest budget; \"(ref. noise)\": 3 x the reference's "
               "standard error of that channel mean exceeds 1 %, so the 1 % check is not decided there. "
               "relMSE x s = (relMSE - ref. share) x iris's wall seconds per budget: constant where iris's "
               "own noise is all that separates it from Mitsuba, rising where a bias remains.", "",
