@@ -375,6 +375,5 @@ def cmd_published(a):
             ref_img = None
         if not a.references_only:
             r["iris"] = iris_side(a, name, scene, size, budgets, ref_img, r["ref"])
-    if a.references_only:
-        log("references done (%s)" % cache)
-    write_report(a, results, budgets, dist, bid, started)
+        write_report(a, results, budgets, dist, bid, started)  # after every scene: an interrupted run still reports
+    log("done: %d scenes, references in %s" % (len(results), cache))
