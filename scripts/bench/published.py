@@ -291,9 +291,16 @@ def write_report(a, results, budgets, dist, bid, started):
     for name, r in results.items():
         ref, iris = r.get("ref"), r.get("iris")
         size = "%dx%d" % r["size"]
+        if iris is not None:
+            w = iris["warnings"]
+            notes.append("- **%s**: iris %s; %s" % (
+                name, "loads" if iris["loads"] else "does not load: `%s`" % iris["error"],
+                ("%d warning(s):\n" % len(w) + "\n".join("  - `%s`" % x for x in w)) if w else "no warnings"))
+        else:
+            notes.append("- **%s**: iris not run" % name)
         if ref is None:
             rows.append([name, size, "Mitsuba failed"] + [""] * (len(head) - 3))
-            notes.append("- **%s**: Mitsuba: %s" % (name, r.get("ref_error")))
+            notes.append("  - Mitsuba failed: `%s`" % r.get("ref_error"))
             continue
         cells = [name, size, "2 x %d (%d), %.0f s" % (ref["spp"], ref["wanted"], sum(ref["cpu"]) / a.threads),
                  fmt3(ref["means"]),
@@ -310,11 +317,6 @@ def write_report(a, results, budgets, dist, bid, started):
             cells += ["%.4g" % x["relmse"] for x in iris["runs"]]
             cells += ["%.2g" % share, "/".join("%.3g" % ((x["relmse"] - share) * x["wall"]) for x in iris["runs"])]
             rows.append(cells)
-        if iris is not None:
-            w = iris["warnings"]
-            notes.append("- **%s**: iris %s; %s" % (
-                name, "loads" if iris["loads"] else "does not load: `%s`" % iris["error"],
-                ("%d warning(s):\n" % len(w) + "\n".join("  - `%s`" % x for x in w)) if w else "no warnings"))
         if ref["warnings"]:
             notes.append("  - Mitsuba warned: " + "; ".join("`%s`" % x for x in ref["warnings"][:6]))
     loads = [x for r in results.values() for x in ((r.get("iris") or {}).get("runs") or [])]
@@ -330,11 +332,15 @@ def write_report(a, results, budgets, dist, bid, started):
     lines += measure.md_table(head, rows)
     lines += ["", "Mitsuba spp: two seeds of that many spp (the spp a 0.3 %% standard error wanted), machine s = their "
               "processor seconds / %d threads. " % a.threads + "diff = iris mean / Mitsuba mean - 1 at the longest budget; \"(ref. noise)\": 3 x the reference's "
-              "standard error of that channel mean exceeds 1 %, so the 1 % check is not decided there. "
+              "standard error of that channel mean exceeds 1 %, so the 1 % check is not decided there (iris's own "
+              "standard error, one render per budget, is not in it). "
               "relMSE x s = (relMSE - ref. share) x iris's wall seconds per budget: constant where iris's "
               "own noise is all that separates it from Mitsuba, rising where a bias remains.", "",
               "Warnings and load errors per scene:", ""] + notes + ["", END]
     block = "\n".join(lines) + "\n"
+    # the report names the scenes' folder by its option, not by this machine's path
+    for folder in sorted({os.path.abspath(a.scenes), a.scenes.rstrip("/")}, key=len, reverse=True):
+        block = block.replace(folder + "/", "<scenes>/").replace(folder, "<scenes>")
     old = open(a.output).read() if os.path.exists(a.output) else "# Published scenes\n\n" + BEGIN + "\n" + END + "\n"
     if BEGIN not in old or END not in old:
         old = old.rstrip("\n") + "\n\n" + BEGIN + "\n" + END + "\n"
