@@ -5,7 +5,10 @@
   - the sampler's sampleCount and seed (`seed` is read by the independent sampler of the build of
     scripts/peers/build-mitsuba.sh; stock Mitsuba 0.5 ignores it and repeats one fixed seed);
   - the film's width and height, and its componentFormat set to float32 (storage only: a half float
-    overflows at 65504, which a sun disk exceeds).
+    overflows at 65504, which a sun disk exceeds);
+  - a scene version 0.6.x written as 0.5.0: Mitsuba 0.5.0 refuses a file of another minor version as "from
+    an incompatible future version", and the 0.6 cores (MARS, the improved-path-guiding fork) read the same
+    format as 0.5.
 Edits are made on the text (comments, order and layout stay as published) and checked by parsing the
 result. No tool is run here, so that selftest can check it.
 """
@@ -144,6 +147,11 @@ def variant(text, spp, seed, width, height):
     info = inspect(text)
     masked = _masked(text)
     scene = _element_span(masked, "scene")
+    v = re.compile(r"(\bversion\s*=\s*\")0\.6\.\d+(\")").search(masked, scene[0], scene[1])
+    if v:
+        text = text[:v.start()] + v.group(1) + "0.5.0" + v.group(2) + text[v.end():]
+        masked = _masked(text)
+        scene = _element_span(masked, "scene")
     integ = _element_span(masked, "integrator", scene[1], scene[2] - len("</scene>"))
     body = '<integrator type="path">\n%s\t<integer name="maxDepth" value="%s"/>\n%s\t<integer name="rrDepth" ' \
            'value="%s"/>\n%s</integrator>'

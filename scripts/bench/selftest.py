@@ -284,8 +284,9 @@ def mitsuba_variant():
     expect(shape_v == _PUB[_PUB.index("<shape"):], "the rest of the file unchanged")
     # without an integrator: path with Mitsuba's defaults, after the leading <default>s only
     bare = _PUB.replace(_PUB[_PUB.index("\t<!-- <integrator"):_PUB.index("\t<default name=\"rr\"")], "")
-    v = mitsuba_xml.variant(bare, 8, 1, 64, 48)
+    v = mitsuba_xml.variant(bare.replace('version="0.5.0"', 'version="0.6.0"'), 8, 1, 64, 48)
     root = ET.fromstring(v)
+    expect(root.get("version") == "0.5.0", "a 0.6 scene is written as 0.5.0 (Mitsuba 0.5.0 refuses 0.6)")
     expect([c.tag for c in root][:4] == ["default"] * 3 + ["integrator"], "inserted after the scene's defaults")
     expect({i.get("name"): i.get("value") for i in root.find("integrator")} == {"maxDepth": "-1", "rrDepth": "5"},
            "no integrator: path with Mitsuba's defaults")
