@@ -158,16 +158,17 @@ filter-profile: peer-blender
 # The published-scene check (docs/PUBLISHED.md): every scene of PUB_NAMES under PUB_SCENES (a folder holding the
 # fetched repositories' scenes, *.available.xml beside the originals) rendered by iris (default settings, each
 # of PUB_BUDGETS seconds) and by Mitsuba's `path` (MITSUBA = dist folder of scripts/peers/build-mitsuba.sh;
-# references cached under .cache/published/<build id>/), PUB_WIDTH pixels wide.
+# references cached under PUB_CACHE/<build id>/, default .cache/published), PUB_WIDTH pixels wide.
 PUB_NAMES ?= cbox,kitchen,spaceship,torus,kitchenette,living_room,bathroom,clocks,cbox_with_bulb,glass_of_water,jewelry
 PUB_WIDTH ?= 128
 PUB_BUDGETS ?= 10,40
 PUB_REF_SECONDS ?= 150
+PUB_CACHE ?= .cache/published
 published:
 	@test -n "$(PUB_SCENES)" -a -n "$(MITSUBA)" || { echo "bench.mk: error: published needs PUB_SCENES=<folder of \
 	  published scenes> MITSUBA=<dist folder of scripts/peers/build-mitsuba.sh>" >&2; exit 2; }
 	$(BENCH) published --scenes $(PUB_SCENES) --mitsuba $(MITSUBA) --names $(PUB_NAMES) --width $(PUB_WIDTH) \
-	  --budgets $(PUB_BUDGETS) --ref-seconds $(PUB_REF_SECONDS)
+	  --budgets $(PUB_BUDGETS) --ref-seconds $(PUB_REF_SECONDS) --cache $(PUB_CACHE)
 
 # Re-draws the committed ladder reports' plots from their tables (no renders; the budget on the time axis).
 plots:
