@@ -192,15 +192,19 @@ def reference(a, name, scene, text, size, dist, cache):
     ib = exr.rgb(os.path.join(out, "pilot-%dx%d-%dspp-seed2.exr" % (*size, a.pilot_spp)))
     means, _ = channel_stats((ia + ib) / 2)
     rse = rel_se_max(means, se_from_pair(ia, ib))  # one pilot render's
-    # machine seconds per spp: processor seconds over the threads (the wall time of an idle machine); the
-    # scene load is in it, so long references cost a little less per spp than this
-    per_spp = max(1e-3, min(x["cpu"] / a.threads for x in (pa, pb)) / a.pilot_spp)
+    # machine seconds (processor seconds over the threads: the wall time of an idle machine), split into the
+    # scene load and the samples by the share of the process's wall time that Mitsuba reports as rendering
+    def split(x):
+        machine = x["cpu"] / a.threads
+        frac = min(1.0, (x["render_seconds"] or x["wall"]) / max(x["wall"], 1e-6))
+        return machine * (1 - frac), machine * frac / a.pilot_spp
+    overhead, per_spp = min(split(x)[0] for x in (pa, pb)), max(1e-4, min(split(x)[1] for x in (pa, pb)))
     # the reference = mean of two renders of N spp: its relative SE = rse * sqrt(pilot / N) / sqrt(2)
     want = math.ceil(a.pilot_spp * (rse / (a.target_se * math.sqrt(2))) ** 2) if math.isfinite(rse) else a.min_spp
-    cap = int(a.ref_seconds / 2 / per_spp)
+    cap = int(max(0.0, a.ref_seconds / 2 - overhead) / per_spp)
     spp = max(a.min_spp, min(want, cap))
-    log("%s: pilot %.3g s/spp, relative SE %.2g -> %d spp wanted, %d affordable: 2 x %d spp (~%.0f s each)"
-        % (name, per_spp, rse, want, cap, spp, spp * per_spp))
+    log("%s: pilot %.3g s to load, %.3g s/spp, relative SE %.2g -> %d spp wanted, %d affordable: 2 x %d spp (~%.0f s each)"
+        % (name, overhead, per_spp, rse, want, cap, spp, spp * per_spp))
     recs = [mitsuba_render(dist, scene, text, spp, seed, size, out, "ref", a.threads) for seed in (11, 12)]
     ra, rb = (exr.rgb(os.path.join(out, "ref-%dx%d-%dspp-seed%d.exr" % (*size, spp, s))) for s in (11, 12))
     ref = (ra + rb) / 2
