@@ -204,7 +204,7 @@ def reference(a, name, scene, text, size, dist, cache):
     cap = int(max(0.0, a.ref_seconds / 2 - overhead) / per_spp)
     # The whole --ref-seconds is spent: the channel means may reach the wanted SE much earlier, but every
     # pixel's noise is what floors the relMSE of iris against the reference (its share is reported).
-    spp = max(a.min_spp, cap)
+    spp = max(a.min_spp, cap) if math.isfinite(rse) else a.min_spp  # a black pilot: nothing to measure
     log("%s: pilot %.3g s to load, %.3g s/spp, relative SE %.2g -> %d spp wanted, %d affordable: 2 x %d spp (~%.0f s each)"
         % (name, overhead, per_spp, rse, want, cap, spp, spp * per_spp))
     recs = [mitsuba_render(dist, scene, text, spp, seed, size, out, "ref", a.threads) for seed in (11, 12)]

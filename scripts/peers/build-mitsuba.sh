@@ -53,12 +53,13 @@ fi
 python3 "$here/mitsuba_debian12.py" "$tree" $fix
 # The plugins of the check: those the published scenes name, what Mitsuba creates by default (diffuse,
 # null, gaussian, independent, hdrfilm, perspective) or internally (sunsky -> sun, sky, envmap,
-# directional; obj -> bumpmap, mask, bitmap; shapegroup/instance), and a few cheap common ones.
+# directional; obj -> bumpmap, mask, bitmap; a bitmap texture resampled to a power of two -> lanczos;
+# shapegroup/instance), every reconstruction filter, and a few cheap common ones.
 CHECK_PLUGINS="path
   diffuse dielectric conductor plastic roughdiffuse roughdielectric roughconductor roughplastic twosided
   mask mixturebsdf blendbsdf bumpmap phong null thindielectric
   obj ply serialized rectangle disk sphere cube cylinder shapegroup instance
-  independent box gaussian tent hdrfilm perspective
+  independent box gaussian tent lanczos mitchell catmullrom hdrfilm perspective
   area directional point spot constant envmap sky sun sunsky
   bitmap scale checkerboard"
 targets=()
