@@ -42,10 +42,10 @@ def replace(root, rel, old, new, count=None):
     tree must hold (None: at least one)."""
     path = os.path.join(root, rel)
     text = read(path)
+    if new in text:
+        return  # already applied (checked first: some replacements contain the text they replace)
     n = text.count(old)
     if n == 0:
-        if new in text:
-            return  # already applied
         die(f"{path}: expected text not found: {old!r}")
     if count is not None and n != count:
         die(f"{path}: expected {count} occurrence(s) of {old!r}, found {n}")
