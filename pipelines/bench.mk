@@ -24,6 +24,8 @@
 #   make -f pipelines/bench.mk throughput   # render's rays/s against raw Embree (~3 min)
 #   make -f pipelines/bench.mk peers        # iris against Blender Cycles (~45 min); peers-glass (~20 min)
 #   make -f pipelines/bench.mk plots        # re-draw the committed ladder reports' plots (no renders)
+#   make -f pipelines/bench.mk published PUB_SCENES=<folder> MITSUBA=<dist>  # iris vs Mitsuba `path` on
+#                                           published scene files (docs/PUBLISHED.md; ~40 min + references)
 #   make -f pipelines/bench.mk selftest     # the harness's own rules, no tool run (seconds)
 #   make -f pipelines/bench.mk smoke        # every subcommand but peers at 24x24-32x32 and 1-3 s (~5 min; out/bench/smoke)
 #
@@ -53,7 +55,8 @@ LADDER_OPTS = --tier $(TIER) --report $(REPORT) --repeats $(REPEATS) --ref-dir $
   $(call opt,--scenes,$(SCENES)) $(foreach s,$(PREP_SET),--prep-set $(s))
 
 .PHONY: quick full ladder references report targets glazed params hybrid product sampler guide-depth \
-  connect-choice ab cost resolution throughput peers peers-glass peer-blender filter-profile plots selftest smoke
+  connect-choice ab cost resolution throughput peers peers-glass peer-blender filter-profile plots selftest smoke \
+  published
 
 quick:
 	@$(MAKE) -f pipelines/bench.mk TIER=quick ladder
@@ -151,6 +154,21 @@ peers-glass: peer-blender
 	$(BENCH) peers --names glass_box --budgets 30,60 --repeats $(PEER_REPEATS) --ref-dir $(REF_DIR) --report peers-glass
 filter-profile: peer-blender
 	$(BENCH) filter-profile --cycles-width 6
+
+# The published-scene check (docs/PUBLISHED.md): every scene of PUB_NAMES under PUB_SCENES (a folder holding the
+# fetched repositories' scenes, *.available.xml beside the originals) rendered by iris (default settings, each
+# of PUB_BUDGETS seconds) and by Mitsuba's `path` (MITSUBA = dist folder of scripts/peers/build-mitsuba.sh;
+# references cached under PUB_CACHE/<build id>/, default .cache/published), PUB_WIDTH pixels wide.
+PUB_NAMES ?= cbox,kitchen,spaceship,torus,kitchenette,living_room,bathroom,clocks,cbox_with_bulb,glass_of_water,jewelry
+PUB_WIDTH ?= 128
+PUB_BUDGETS ?= 10,40
+PUB_REF_SECONDS ?= 150
+PUB_CACHE ?= .cache/published
+published:
+	@test -n "$(PUB_SCENES)" -a -n "$(MITSUBA)" || { echo "bench.mk: error: published needs PUB_SCENES=<folder of \
+	  published scenes> MITSUBA=<dist folder of scripts/peers/build-mitsuba.sh>" >&2; exit 2; }
+	$(BENCH) published --scenes $(PUB_SCENES) --mitsuba $(MITSUBA) --names $(PUB_NAMES) --width $(PUB_WIDTH) \
+	  --budgets $(PUB_BUDGETS) --ref-seconds $(PUB_REF_SECONDS) --cache $(PUB_CACHE)
 
 # Re-draws the committed ladder reports' plots from their tables (no renders; the budget on the time axis).
 plots:

@@ -1,7 +1,7 @@
 """The harness's single entry point: `python3 -m scripts.bench <subcommand>` (see --help of each)."""
 import argparse
 
-from . import costs, filter_profile, peers, plots, selftest, spread, studies, tier
+from . import costs, filter_profile, peers, plots, published, selftest, spread, studies, tier
 
 DOCS = "docs/benchmarks/"
 
@@ -100,6 +100,8 @@ def main(argv=None):
     s.add_argument("--report", default="peers")
     s.add_argument("--docs", default="docs/benchmarks")
     s.add_argument("--runs", default="out/bench")
+    published.add_options(add("published", published.cmd_published, "published Mitsuba scenes: iris against "
+                              "Mitsuba's path integrator on the same files (means, relMSE, reference noise)"))
     filter_profile.add_options(add("filter-profile", filter_profile.cmd_filter_profile,
                                    "iris's and Cycles' pixel filter on a slanted emitter edge"))
     add("selftest", selftest.cmd_selftest, "the harness's own rules, checked without running a tool")

@@ -5,7 +5,7 @@ import os
 import sys
 import tempfile
 
-from . import costs, ladder, measure, plots, references, tier, tools
+from . import costs, ladder, measure, mitsuba_xml, plots, published, references, tier, tools
 
 CHECKS = []
 
@@ -237,6 +237,77 @@ def report_tables_and_plots():
         expect(os.path.getsize(os.path.join(d, "box.png")) > 0 and os.path.getsize(os.path.join(d, "box.svg")) > 0,
                "PNG and SVG written")
         expect(not plots.plot("none", {"a": [(0, 1)]}, os.path.join(d, "none")), "nothing positive: no plot")
+
+
+# A made-up published scene: a guided integrator with a commented-out one, $defaults, a nested <default>
+# inside a shape, a self-closing film.
+_PUB = """<scene version="0.5.0">
+	<default name="spp" value="64"/>
+	<default name="w" value="640"/>
+	<!-- <integrator type="bdpt"/> -->
+	<integrator type="guided_path">
+		<integer name="maxDepth" value="10"/>
+		<integer name="rrDepth" value="$rr"/>
+		<!--<integer name="maxDepth" value="40"/>-->
+		<string name="budgetType" value="spp"/>
+	</integrator>
+	<default name="rr" value="7"/>
+	<sensor type="perspective">
+		<sampler type="independent">
+			<integer name="sampleCount" value="$spp"/>
+		</sampler>
+		<film type="hdrfilm"/>
+	</sensor>
+	<shape type="sphere"><default name="x" value="1"/><bsdf type="diffuse"/></shape>
+</scene>
+"""
+
+
+@check
+def mitsuba_variant():
+    import xml.etree.ElementTree as ET
+    info = mitsuba_xml.inspect(_PUB)
+    expect((info["width"], info["height"]) == (768, 576), "film size: Mitsuba's defaults where unset")
+    expect((info["maxDepth"], info["rrDepth"]) == ("10", "7"), "depths with $names resolved from <default>s")
+    v = mitsuba_xml.variant(_PUB, 32, 5, 128, 96)
+    root = ET.fromstring(v)
+    integ = root.findall("integrator")
+    expect(len(integ) == 1 and integ[0].get("type") == "path", "one stock path integrator")
+    expect({i.get("name"): i.get("value") for i in integ[0]} == {"maxDepth": "10", "rrDepth": "7"},
+           "the scene's maxDepth and rrDepth kept, nothing else")
+    s = {i.get("name"): i.get("value") for i in root.find("sensor/sampler")}
+    expect(s == {"sampleCount": "32", "seed": "5"}, "sampleCount and seed set")
+    f = {i.get("name"): i.get("value") for i in root.find("sensor/film")}
+    expect(f == {"width": "128", "height": "96", "componentFormat": "float32"}, "film size set, float32")
+    expect("<!-- <integrator type=\"bdpt\"/> -->" in v, "comments kept as published")
+    shape_v = v[v.index("<shape"):]
+    expect(shape_v == _PUB[_PUB.index("<shape"):], "the rest of the file unchanged")
+    # without an integrator: path with Mitsuba's defaults, after the leading <default>s only
+    bare = _PUB.replace(_PUB[_PUB.index("\t<!-- <integrator"):_PUB.index("\t<default name=\"rr\"")], "")
+    v = mitsuba_xml.variant(bare.replace('version="0.5.0"', 'version="0.6.0"'), 8, 1, 64, 48)
+    root = ET.fromstring(v)
+    expect(root.get("version") == "0.5.0", "a 0.6 scene is written as 0.5.0 (Mitsuba 0.5.0 refuses 0.6)")
+    expect([c.tag for c in root][:4] == ["default"] * 3 + ["integrator"], "inserted after the scene's defaults")
+    expect({i.get("name"): i.get("value") for i in root.find("integrator")} == {"maxDepth": "-1", "rrDepth": "5"},
+           "no integrator: path with Mitsuba's defaults")
+    expect(raises(mitsuba_xml.SceneError, mitsuba_xml.variant, "<scene><shape type='obj'/></scene>", 1, 1, 8, 8),
+           "no sensor: an error")
+
+
+@check
+def published_noise():
+    import numpy as np
+    rng = np.random.default_rng(3)
+    truth = np.full((64, 64, 3), 0.5)
+    a = truth + rng.normal(0, 0.1, truth.shape)
+    b = truth + rng.normal(0, 0.1, truth.shape)
+    se = published.se_from_pair(a, b)
+    expect(all(abs(s / (0.1 / 64) - 1) < 0.1 for s in se), "SE of one render's mean = sigma / sqrt(n)")
+    expect(abs(published.relmse(a, truth) / (0.01 / 0.26) - 1) < 0.05, "relMSE: squared error over r^2 + 0.01")
+    expect(abs(published.rel_se_max([1.0, 0.5, 1e-6], [0.01, 0.01, 1.0]) - 0.02) < 1e-12,
+           "the largest relative SE over channels that carry light")
+    expect(published.scene_name("/x/ipg/torus/scene.available.xml") == "torus"
+           and published.scene_name("/x/ppg/cbox/cbox.available.xml") == "cbox", "scene names")
 
 
 def cmd_selftest(_):
