@@ -1,5 +1,6 @@
 // <emitter> plugins: point, spot, directional, constant and envmap at the top level (each one
-// builder function registered in kEmitters), and the area emitter nested in a shape.
+// builder function registered in kEmitters; sky, sun and sunsky are in sunsky.cpp), and the area
+// emitter nested in a shape.
 #include <algorithm>
 #include <cmath>
 
@@ -142,6 +143,7 @@ struct EmitterPlugin {
 };
 const EmitterPlugin kEmitters[] = {
     {"point", point}, {"spot", spot}, {"directional", directional}, {"constant", constant}, {"envmap", envmap},
+    {"sky", sky_emitter}, {"sun", sun_emitter}, {"sunsky", sunsky_emitter},
 };
 
 }  // namespace
