@@ -5,6 +5,7 @@
 // three plugins, and the date and place too (Mitsuba takes a month 13 as the next January).
 #include <cmath>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -19,22 +20,27 @@ int line_of(SceneBuilder& b, Plugin& e, const char* name) {
     return p ? p->line : e.line;
 }
 
+std::string num(double v) {
+    std::ostringstream os;
+    os << v;
+    return os.str();
+}
+
+[[noreturn]] void out_of_range(SceneBuilder& b, Plugin& e, const char* name, double v, double lo, double hi) {
+    fail(*e.src, line_of(b, e, name),
+         e.what() + ": " + name + " " + num(v) + " is outside [" + num(lo) + ", " + num(hi) + "]");
+}
+
 // A <float> (or <integer>) parameter that must lie in [lo, hi].
 double ranged(SceneBuilder& b, Plugin& e, const char* name, double def, double lo, double hi) {
     const double v = b.get_float(e, name, float(def));
-    if (!(v >= lo && v <= hi))
-        fail(*e.src, line_of(b, e, name),
-             e.what() + ": " + name + " " + std::to_string(v) + " is outside [" + std::to_string(lo) + ", " +
-                 std::to_string(hi) + "]");
+    if (!(v >= lo && v <= hi)) out_of_range(b, e, name, v, lo, hi);
     return v;
 }
 
 int ranged_int(SceneBuilder& b, Plugin& e, const char* name, int def, int lo, int hi) {
     const int v = b.get_int(e, name, def);
-    if (v < lo || v > hi)
-        fail(*e.src, line_of(b, e, name),
-             e.what() + ": " + name + " " + std::to_string(v) + " is outside [" + std::to_string(lo) + ", " +
-                 std::to_string(hi) + "]");
+    if (v < lo || v > hi) out_of_range(b, e, name, v, lo, hi);
     return v;
 }
 
@@ -89,7 +95,7 @@ Common read_common(SceneBuilder& b, Plugin& e) {
     if (c.p.sun.theta > 0.5 * 3.14159265358979323846)
         fail(*e.src, e.line,
              e.what() + ": the sun is below the horizon (zenith angle " +
-                 std::to_string(c.p.sun.theta * 180 / 3.14159265358979323846) +
+                 num(c.p.sun.theta * 180 / 3.14159265358979323846) +
                  " degrees); Mitsuba's sky model needs it above");
     return c;
 }

@@ -360,6 +360,8 @@ Scene parse(const TempDir& d, const std::string& emitter) {
     return parse_scene(d.write("s.xml", scene_with(emitter)), o);
 }
 
+void expect_refused(const std::string& emitter, const std::string& marker, const std::string& fragment);
+
 const EnvMap& env_of(const Scene& s) {
     for (const Light& l : s.lights)
         if (l.type == LightType::Envmap) return *l.envmap;
@@ -452,6 +454,27 @@ TEST(SunSkyReader, SunAndSkyAlone) {
     const Scene dir = parse(d, R"(<emitter type="sun"><float name="sunRadiusScale" value="0"/></emitter>)");
     ASSERT_EQ(dir.lights.size(), 1u);
     EXPECT_EQ(dir.lights[0].type, LightType::Directional);
+}
+
+TEST(SunSkyReader, SunBesideSkyAddsUpToSunsky) {
+    // Mitsuba renders the sum of a `sun` and a `sky` emitter, which is what `sunsky` rasterises; iris adds
+    // the second environment into the first (emitters.cpp), texel by texel.
+    TempDir d;
+    const Scene apart = parse(d, R"(<emitter type="sky"><float name="hour" value="10"/></emitter>
+      <emitter type="sun"><float name="hour" value="10"/></emitter>
+      <emitter type="constant"><rgb name="radiance" value="0.01, 0.02, 0.03"/></emitter>)");
+    ASSERT_EQ(apart.lights.size(), 1u);
+    const Scene joint = parse(d, R"(<emitter type="sunsky"><float name="hour" value="10"/></emitter>)");
+    const EnvMap &a = env_of(apart), &j = env_of(joint);
+    ASSERT_EQ(a.texels.size(), j.texels.size());
+    for (size_t i = 0; i < a.texels.size(); ++i) {
+        const RGB want = j.texels[i] + RGB(0.01f, 0.02f, 0.03f);
+        ASSERT_NEAR(a.texels[i].r, want.r, 1e-5f * want.r) << i;
+        ASSERT_NEAR(a.texels[i].b, want.b, 1e-5f * want.b) << i;
+    }
+    // Maps of different sizes cannot be added: refused, at the second emitter.
+    expect_refused("<emitter type=\"sky\"/>\n<emitter type=\"sun\"><integer name=\"resolution\" value=\"256\"/></emitter>",
+                   "<emitter type=\"sun\"", "cannot be added");
 }
 
 void expect_refused(const std::string& emitter, const std::string& marker, const std::string& fragment) {
