@@ -48,7 +48,8 @@ bool leap_year(int y) { return (y % 4 == 0 && y % 100 != 0) || y % 400 == 0; }
 
 // The sun's direction in the emitter's own frame, before `stretch` (Mitsuba's computeSunCoordinates):
 // either sunDirection (world space, towards the sun) taken back through toWorld, or the position for
-// the date, local time and place.
+// the date, local time and place: latitude in degrees north, longitude in degrees east, timezone in
+// hours ahead of UTC, the time of day in hours, minutes and seconds of local time.
 SkyAngles read_sun(SceneBuilder& b, Plugin& e, const Transform& to_world) {
     if (std::optional<Vec3> dir = b.get_point(e, "sunDirection")) {
         for (const char* other : {"latitude", "longitude", "timezone", "day"})
