@@ -151,6 +151,12 @@ public:
 bool bsdf_type_supported(const std::string& type);
 bool texture_type_supported(const std::string& type);
 
+// sunsky.cpp: the daylight emitters "sky", "sun" and "sunsky" (EmitterBuilders; rows in emitters.cpp's
+// table). "sunsky" with sunRadiusScale 0 also adds the sun's directional light to b.scene.lights.
+void sky_emitter(SceneBuilder& b, Plugin& e, Light* l);
+void sun_emitter(SceneBuilder& b, Plugin& e, Light* l);
+void sunsky_emitter(SceneBuilder& b, Plugin& e, Light* l);
+
 // "a, b and c": the names of a plugin table, for "unsupported plugin" messages.
 std::string name_list(const std::vector<std::string>& names, const char* last_separator);
 

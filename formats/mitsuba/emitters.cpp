@@ -1,5 +1,6 @@
 // <emitter> plugins: point, spot, directional, constant and envmap at the top level (each one
-// builder function registered in kEmitters), and the area emitter nested in a shape.
+// builder function registered in kEmitters; sky, sun and sunsky are in sunsky.cpp), and the area
+// emitter nested in a shape.
 #include <algorithm>
 #include <cmath>
 
@@ -135,6 +136,37 @@ void envmap(SceneBuilder& b, Plugin& e, Light* l) {
     }
 }
 
+// Mitsuba renders the sum of several environment emitters (a `sun` beside a `sky`, a `constant` fill
+// beside an `envmap`); iris keeps one environment light, so a second one is added into the first:
+// constants add, a constant adds to every texel of a map, and two maps add texel by texel when they have
+// the same size and toWorld. The sum emits the same radiance from every direction, and is sampled by its
+// total luminance. False (nothing changed) where the two cannot be added so.
+bool add_environment(Light* into, const Light& l) {
+    if (into->sampling_weight != l.sampling_weight) return false;
+    if (into->type == LightType::Constant && l.type == LightType::Constant) {
+        into->radiance = into->radiance + l.radiance;
+        return true;
+    }
+    const bool into_map = into->type == LightType::Envmap;
+    const EnvMap& base = into_map ? *into->envmap : *l.envmap;
+    const Light& other = into_map ? l : *into;
+    std::vector<RGB> texels = base.texels;
+    if (other.type == LightType::Constant) {
+        for (RGB& t : texels) t = t + other.radiance;
+    } else {
+        const EnvMap& m = *other.envmap;
+        if (m.width != base.width || m.height != base.height) return false;
+        for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j)
+                if (m.to_world.m[i][j] != base.to_world.m[i][j]) return false;
+        for (size_t i = 0; i < texels.size(); ++i) texels[i] = texels[i] + m.texels[i];
+    }
+    into->envmap = make_envmap(base.width, base.height, std::move(texels), base.to_world);
+    into->type = LightType::Envmap;
+    into->radiance = RGB(0.0f);
+    return true;
+}
+
 // The emitter plugins (an area emitter is nested in its shape: SceneBuilder::area_emitter).
 struct EmitterPlugin {
     const char* name;
@@ -142,6 +174,7 @@ struct EmitterPlugin {
 };
 const EmitterPlugin kEmitters[] = {
     {"point", point}, {"spot", spot}, {"directional", directional}, {"constant", constant}, {"envmap", envmap},
+    {"sky", sky_emitter}, {"sun", sun_emitter}, {"sunsky", sunsky_emitter},
 };
 
 }  // namespace
@@ -162,13 +195,18 @@ void SceneBuilder::emitter(const Source& src, pugi::xml_node n) {
     Light l;
     plugin->build(*this, e, &l);
     const bool env = l.type == LightType::Constant || l.type == LightType::Envmap;
-    if (env)
-        for (const Light& other : scene.lights)
-            if (other.type == LightType::Constant || other.type == LightType::Envmap)
-                fail(src, e.line, "a second environment emitter (constant or envmap): iris takes one per scene");
     l.sampling_weight = sampling_weight(*this, e);
     check_radiance(e, l.radiance);
     finish(e);
+    if (env)
+        for (Light& other : scene.lights)
+            if (other.type == LightType::Constant || other.type == LightType::Envmap) {
+                if (!add_environment(&other, l))
+                    fail(src, e.line,
+                         "a second environment emitter that cannot be added to the first (maps of another size or "
+                         "orientation, or another samplingWeight): iris keeps one environment light per scene");
+                return;
+            }
     scene.lights.push_back(l);
     if (env) scene.environment_light = int(scene.lights.size() - 1);
 }

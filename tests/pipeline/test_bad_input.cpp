@@ -274,6 +274,14 @@ protected:
         write_text(in("spot_beam.xml"),
                    emitter(R"(type="spot"><float name="cutoffAngle" value="10"/><float name="beamWidth" value="30"/>)"));
         write_text(in("directional_zero.xml"), emitter(R"(type="directional"><vector name="direction" x="0" y="0" z="0"/>)"));
+        // Daylight: a turbidity outside the sky model's 1..10, a month 13, a sun below the horizon (2 am
+        // in Tokyo), a sun direction given beside a place.
+        write_text(in("sunsky_turbidity0.xml"), emitter(R"(type="sunsky"><float name="turbidity" value="0"/>)"));
+        write_text(in("sky_turbidity20.xml"), emitter(R"(type="sky"><float name="turbidity" value="20"/>)"));
+        write_text(in("sunsky_month13.xml"), emitter(R"(type="sunsky"><integer name="month" value="13"/>)"));
+        write_text(in("sunsky_night.xml"), emitter(R"(type="sunsky"><float name="hour" value="2"/>)"));
+        write_text(in("sunsky_direction_and_place.xml"),
+                   emitter(R"(type="sunsky"><vector name="sunDirection" x="0" y="1" z="0"/><float name="latitude" value="48"/>)"));
         write_text(in("empty.obj"), "# no faces\nv 0 0 0\n");
         // PLY and Mitsuba serialized meshes: a valid triangle, then broken copies.
         auto mesh_shape = [](const char* type, const std::string& file, const std::string& extra = "") {
@@ -407,6 +415,12 @@ const BadInputCase kCases[] = {
     {"SpotNegativeCutoff", "render", "spot light cutoffAngle -5", "{in}/spot_cutoff.xml -o {out}", "cutoffAngle"},
     {"SpotBeamWiderThanCutoff", "render", "spot light beamWidth 30 > cutoffAngle 10", "{in}/spot_beam.xml -o {out}", "beamWidth"},
     {"DirectionalZeroDirection", "render", "directional light with direction (0, 0, 0)", "{in}/directional_zero.xml -o {out}", "direction"},
+    {"SunskyTurbidityZero", "render", "sunsky turbidity 0 (the sky model covers 1 to 10)", "{in}/sunsky_turbidity0.xml -o {out}", "turbidity 0 is outside [1, 10]"},
+    {"SkyTurbidityTwenty", "render", "sky turbidity 20", "{in}/sky_turbidity20.xml -o {out}", "turbidity 20 is outside [1, 10]"},
+    {"SunskyMonthThirteen", "render", "sunsky month 13", "{in}/sunsky_month13.xml -o {out}", "month 13 is outside [1, 12]"},
+    {"SunskySunBelowHorizon", "render", "sunsky at 2 am: the sun below the horizon", "{in}/sunsky_night.xml -o {out}", "the sun is below the horizon"},
+    {"SunskyDirectionAndPlace", "render", "sunsky with both sunDirection and latitude", "{in}/sunsky_direction_and_place.xml -o {out}", "give either sunDirection or the date, time and place"},
+    {"TracePhotonsSunskyMonthThirteen", "trace-photons", "sunsky month 13", "{in}/sunsky_month13.xml -o {out}", "month 13 is outside [1, 12]"},
     {"TracePhotonsEnvmapMissing", "trace-photons", "envmap file does not exist", "{in}/envmap_missing.xml -o {out}", "no_such_sky.exr", "cannot read envmap file"},
     {"PlyTruncated", "render", "binary PLY cut short in its face list", "{in}/truncated_ply.xml -o {out}", "truncated.ply", "truncated?"},
     {"PlyCorrupt", "render", "PLY header with an unknown property type", "{in}/corrupt_ply.xml -o {out}", "corrupt.ply", "unknown property type \"flaot\""},
