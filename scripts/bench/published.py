@@ -345,8 +345,11 @@ def write_report(a, results, budgets, dist, bid, started):
               "Warnings and load errors per scene:", ""] + notes + ["", END]
     block = "\n".join(lines) + "\n"
     # the report names the scenes' folder by its option, not by this machine's path
-    for folder in sorted({os.path.abspath(a.scenes), a.scenes.rstrip("/")}, key=len, reverse=True):
-        block = block.replace(folder + "/", "<scenes>/").replace(folder, "<scenes>")
+    # and the Mitsuba build and the reference cache by theirs (longest path first: one may hold another)
+    names = [(a.scenes, "<scenes>"), (a.mitsuba, "<mitsuba>"), (a.cache, "<cache>")]
+    paths = [(f, name) for p, name in names for f in {os.path.abspath(p), p.rstrip("/")}]
+    for folder, name in sorted(paths, key=lambda x: len(x[0]), reverse=True):
+        block = block.replace(folder + "/", name + "/").replace(folder, name)
     old = open(a.output).read() if os.path.exists(a.output) else "# Published scenes\n\n" + BEGIN + "\n" + END + "\n"
     if BEGIN not in old or END not in old:
         old = old.rstrip("\n") + "\n\n" + BEGIN + "\n" + END + "\n"
