@@ -14,30 +14,20 @@
 #include "libcommon/bsdf.h"
 #include "libcommon/rng.h"
 #include "support/chi2.h"
+#include "support/mixtures.h"
 
 namespace iris {
 namespace {
+
+using test::keep;
+using test::mix;
+using test::phong;
 
 Vec3 dir(float theta_deg, float phi_deg) {
     const float t = theta_deg * kPi / 180, p = phi_deg * kPi / 180;
     return {std::sin(t) * std::cos(p), std::sin(t) * std::sin(p), std::cos(t)};
 }
 
-const Bsdf* keep(Bsdf b) {
-    static std::deque<Bsdf> parts;  // stable addresses for the mixtures' part pointers
-    bsdf_prepare(b);
-    parts.push_back(b);
-    return &parts.back();
-}
-Bsdf phong(RGB kd, RGB ks, float n) {
-    Bsdf b;
-    b.type = BsdfType::Phong;
-    b.diffuse = kd;
-    b.specular = ks;
-    b.alpha_u = b.alpha_v = n;
-    bsdf_prepare(b);
-    return b;
-}
 Bsdf simple(BsdfType t, float alpha = 0.2f, RGB rho = RGB(0.5f)) {
     Bsdf b;
     b.type = t;
@@ -47,18 +37,6 @@ Bsdf simple(BsdfType t, float alpha = 0.2f, RGB rho = RGB(0.5f)) {
     b.k = {4.83f, 3.12f, 2.15f};
     b.ior = 1.5f;
     return b;
-}
-Bsdf mix(std::vector<std::pair<float, Bsdf>> parts) {
-    Bsdf m;
-    m.type = BsdfType::Mixture;
-    const Bsdf* p[kMaxBsdfParts];
-    for (const auto& [w, b] : parts) {
-        m.part_weight[m.part_count] = w;
-        p[m.part_count++] = keep(b);
-    }
-    bsdf_prepare(m);
-    bsdf_link_parts(m, p);
-    return m;
 }
 
 struct Config {

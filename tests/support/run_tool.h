@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <string>
 
+#include "support/temp_dir.h"
+
 namespace iris::test {
 
 struct ToolResult {
@@ -35,19 +37,6 @@ inline std::string tool(const std::string& name) { return std::string(IRIS_BIN_D
 // Path of a file under tests/data.
 inline std::string data_file(const std::string& rel) { return std::string(IRIS_SOURCE_DIR) + "/tests/data/" + rel; }
 
-// A fresh temporary directory for one test, removed when the object dies.
-struct TempDir {
-    std::filesystem::path path;
-    TempDir() {
-        char tmpl[] = "/tmp/iris-test-XXXXXX";
-        path = mkdtemp(tmpl);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        std::filesystem::remove_all(path, ec);
-    }
-    std::string file(const std::string& name) const { return (path / name).string(); }
-};
 
 }  // namespace iris::test
 

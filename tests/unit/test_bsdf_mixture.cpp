@@ -10,9 +10,14 @@
 
 #include "libcommon/bsdf.h"
 #include "libcommon/rng.h"
+#include "support/mixtures.h"
 
 namespace iris {
 namespace {
+
+using test::keep;
+using test::mix;
+using test::phong;
 
 Vec3 dir(float theta_deg, float phi_deg) {
     const float t = theta_deg * kPi / 180, p = phi_deg * kPi / 180;
@@ -35,25 +40,6 @@ Vec2 next2(Rng& rng) { return {rng.next_float(), rng.next_float()}; }
     return ::testing::AssertionSuccess();
 }
 
-// Parts live here, at stable addresses, for the mixtures' part pointers.
-std::deque<Bsdf>& storage() {
-    static std::deque<Bsdf> s;
-    return s;
-}
-const Bsdf* keep(Bsdf b) {
-    bsdf_prepare(b);
-    storage().push_back(b);
-    return &storage().back();
-}
-Bsdf phong(RGB kd, RGB ks, float n) {
-    Bsdf b;
-    b.type = BsdfType::Phong;
-    b.diffuse = kd;
-    b.specular = ks;
-    b.alpha_u = b.alpha_v = n;
-    bsdf_prepare(b);
-    return b;
-}
 Bsdf diffuse(RGB rho) {
     Bsdf b;
     b.diffuse = rho;
@@ -75,18 +61,6 @@ Bsdf rough(BsdfType t, float alpha) {
     b.k = {4.83f, 3.12f, 2.15f};
     b.ior = 1.5f;
     return b;
-}
-Bsdf mix(std::vector<std::pair<float, Bsdf>> parts) {
-    Bsdf m;
-    m.type = BsdfType::Mixture;
-    const Bsdf* p[kMaxBsdfParts];
-    for (const auto& [w, b] : parts) {
-        m.part_weight[m.part_count] = w;
-        p[m.part_count++] = keep(b);
-    }
-    bsdf_prepare(m);
-    bsdf_link_parts(m, p);
-    return m;
 }
 
 struct Case {

@@ -18,33 +18,14 @@
 #include "formats/scene_xml.h"
 #include "libcommon/accel.h"
 #include "libcommon/scene.h"
+#include "support/temp_dir.h"
 
 namespace fs = std::filesystem;
 
 namespace iris {
 namespace {
 
-class TempDir {
-public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        path_ = fs::temp_directory_path() / ("iris_mask_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-        fs::remove_all(path_);
-        fs::create_directories(path_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    std::string write(const std::string& name, const std::string& text) const {
-        std::ofstream(path_ / name, std::ios::binary) << text;
-        return (path_ / name).string();
-    }
-    std::string operator()(const std::string& name) const { return (path_ / name).string(); }
-
-private:
-    fs::path path_;
-};
+using iris::test::TempDir;
 
 std::string scene_text(const std::string& body) {
     return "<?xml version=\"1.0\"?>\n<scene version=\"0.5.0\">\n"
@@ -129,8 +110,8 @@ TEST(MaskReader, KitchenBlindsForm) {
 // with a textured reflectance; and the same through <ref>s to a top-level texture and BSDF.
 TEST(MaskReader, BathroomRugFormAndRefs) {
     TempDir d;
-    write_half_mask(d("rug_mask.png"));
-    write_png(d("rug.png"), 1, 1, {0.5f, 0.4f, 0.3f});
+    write_half_mask(d.file("rug_mask.png"));
+    write_png(d.file("rug.png"), 1, 1, {0.5f, 0.4f, 0.3f});
     const std::string text = scene_text(R"(  <bsdf type="mask" id="Rug">
     <texture name="opacity" type="bitmap">
       <string name="filename" value="rug_mask.png"/>
@@ -205,8 +186,8 @@ TEST(MaskReader, RescalingAndNesting) {
 
 TEST(MaskReader, RefusalsAreOneLineNamingTheLine) {
     TempDir d;
-    write_half_mask(d("m.png"));
-    write_png(d("colour.png"), 1, 1, {1, 0, 0});
+    write_half_mask(d.file("m.png"));
+    write_png(d.file("colour.png"), 1, 1, {1, 0, 0});
     auto shape = [](const std::string& bsdf) { return scene_text("  <shape type=\"sphere\">\n" + bsdf + "  </shape>\n"); };
     std::string t = shape("    <bsdf type=\"mask\">\n      <spectrum name=\"opacity\" value=\"0.3\"/>\n    </bsdf>\n");
     expect_error(d, t, "\"mask\"", "mask needs a nested <bsdf> or <ref>");
@@ -252,7 +233,7 @@ Probe probe(const Scene& s, float x, float y) {
 // towards +y) is below 1/2 where y > 0.
 TEST(MaskFilter, TexturedOpacityZeroAndOneIsExact) {
     TempDir d;
-    write_half_mask(d("m.png"));
+    write_half_mask(d.file("m.png"));
     const std::string mask = R"(<bsdf type="mask">
       <texture name="opacity" type="bitmap"><string name="filename" value="m.png"/><string name="filterType" value="nearest"/></texture>
       <bsdf type="diffuse"/>

@@ -20,33 +20,14 @@
 #include "formats/ply.h"
 #include "formats/scene_xml.h"
 #include "formats/serialized.h"
+#include "support/temp_dir.h"
 
 using namespace iris;
 namespace fs = std::filesystem;
 
 namespace {
 
-class TempDir {
-public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        path_ = fs::temp_directory_path() / ("iris_meshfmt_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-        fs::remove_all(path_);
-        fs::create_directories(path_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    std::string write(const std::string& name, const std::string& bytes) const {
-        fs::path p = path_ / name;
-        std::ofstream(p, std::ios::binary) << bytes;
-        return p.string();
-    }
-
-private:
-    fs::path path_;
-};
+using iris::test::TempDir;
 
 // A small polygon mesh: a unit-ish box with one pentagon (split top), one quad per side, irregular
 // coordinates (none exactly representable in decimal), per-vertex normals and texture coordinates.

@@ -18,33 +18,14 @@
 #include "formats/scene_xml.h"
 #include "formats/serialized.h"
 #include "libcommon/spectrum.h"
+#include "support/temp_dir.h"
 
 using namespace iris;
 namespace fs = std::filesystem;
 
 namespace {
 
-class TempDir {
-public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        path_ = fs::temp_directory_path() / ("iris_tolerance_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-        fs::remove_all(path_);
-        fs::create_directories(path_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    std::string write(const std::string& name, const std::string& text) const {
-        const fs::path p = path_ / name;
-        std::ofstream(p, std::ios::binary) << text;
-        return p.string();
-    }
-
-private:
-    fs::path path_;
-};
+using iris::test::TempDir;
 
 int line_of(const std::string& text, const std::string& marker) {
     const size_t at = text.find(marker);

@@ -25,6 +25,7 @@ namespace {
 
 // The published tables (numbers only); the model is evaluated from them here, independently of sky.cpp.
 #include "libcommon/sky_data.inc"
+#include "support/temp_dir.h"
 
 constexpr double kDeg = M_PI / 180.0;
 
@@ -271,7 +272,9 @@ TEST(SunSkyMap, SunDiskKeepsItsPowerAndStaysInItsCone) {
             const double half_row = 0.5 * M_PI / h, nearest = std::max(p.sun.theta - cone, half_row);
             const double tol = 3e-3 + half_row / std::tan(nearest);
             EXPECT_NEAR(power, want, tol * want) << "radius x" << radius_scale << " zenith " << zen_deg;
-            if (zen_deg > 30) EXPECT_NEAR(power, want, 3e-3 * want);
+            if (zen_deg > 30) {
+                EXPECT_NEAR(power, want, 3e-3 * want);
+            }
         }
 }
 
@@ -322,27 +325,7 @@ TEST(SunSkyMap, StretchAndExtendReachBelowTheHorizon) {
 // ---------------------------------------------------------------------------------------------------
 // The readers
 
-class TempDir {
-public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        path_ = std::filesystem::temp_directory_path() /
-                ("iris_sky_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-        std::filesystem::create_directories(path_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        std::filesystem::remove_all(path_, ec);
-    }
-    std::string write(const std::string& name, const std::string& text) const {
-        const std::string p = (path_ / name).string();
-        std::ofstream(p) << text;
-        return p;
-    }
-
-private:
-    std::filesystem::path path_;
-};
+using iris::test::TempDir;
 
 std::string scene_with(const std::string& emitter) {
     return "<?xml version=\"1.0\"?>\n<scene version=\"0.5.0\">\n" + emitter +

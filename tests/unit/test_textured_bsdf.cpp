@@ -21,33 +21,14 @@
 #include "libcommon/spectrum.h"
 #include "libcommon/texture.h"
 #include "tools/render/integrator.h"
+#include "support/temp_dir.h"
 
 namespace fs = std::filesystem;
 
 namespace iris {
 namespace {
 
-class TempDir {
-public:
-    TempDir() {
-        static std::atomic<int> counter{0};
-        path_ = fs::temp_directory_path() / ("iris_textured_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
-        fs::remove_all(path_);
-        fs::create_directories(path_);
-    }
-    ~TempDir() {
-        std::error_code ec;
-        fs::remove_all(path_, ec);
-    }
-    std::string write(const std::string& name, const std::string& text) const {
-        std::ofstream(path_ / name, std::ios::binary) << text;
-        return (path_ / name).string();
-    }
-    std::string operator()(const std::string& name) const { return (path_ / name).string(); }
-
-private:
-    fs::path path_;
-};
+using iris::test::TempDir;
 
 // A 2 x 2 PNG, 8-bit values k / 255 as given (sRGB-encoded by convention): rows top to bottom.
 const float kTexels[12] = {200 / 255.0f, 40 / 255.0f, 40 / 255.0f,   40 / 255.0f, 200 / 255.0f, 40 / 255.0f,
@@ -59,7 +40,7 @@ RGB texel_linear(int x, int y) {
 }
 
 void write_texture(const TempDir& d, const std::string& name) {
-    write_png(d(name), 2, 2, std::vector<float>(std::begin(kTexels), std::end(kTexels)));
+    write_png(d.file(name), 2, 2, std::vector<float>(std::begin(kTexels), std::end(kTexels)));
 }
 
 std::string scene_text(const std::string& body, int width = 16, int height = 16) {
@@ -367,7 +348,7 @@ TEST(TexturedBsdf, FingerprintCoversTextureFiles) {
     EXPECT_EQ(load_quiet(xml).fingerprint, a);
     std::vector<float> other(std::begin(kTexels), std::end(kTexels));
     other[4] = 41 / 255.0f;  // one texel's green one step brighter
-    write_png(d("t.png"), 2, 2, other);
+    write_png(d.file("t.png"), 2, 2, other);
     EXPECT_NE(load_quiet(xml).fingerprint, a);
 }
 
@@ -415,7 +396,7 @@ void write_ramp(const TempDir& d, const std::string& name, float a = kBumpA, flo
     const float h[4] = {0, a, b, a + b};  // rows top (v = 0) to bottom
     std::vector<float> rgb;
     for (float v : h) rgb.insert(rgb.end(), {v, v, v});
-    write_png(d(name), 2, 2, rgb);
+    write_png(d.file(name), 2, 2, rgb);
 }
 std::string bumped(const std::string& inner_bsdf, float scale = 0.05f) {
     return "<bsdf type=\"bumpmap\"><texture type=\"scale\"><float name=\"scale\" value=\"" + std::to_string(scale) +
